@@ -26,13 +26,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.types import I64, DetectionBatch
-from aion_cli.formats.track_csv import (
+from aion_cli.formats.track_csv import differenced
+from aion_cli.formats.track_parse import (
     _check_file,
     _plain_columns,
     _seconds_to_ns,
     _Spec,
     check_encoding,
-    differenced,
 )
 from aion_cli.formats.track_types import (
     NoTrackRowsError,

@@ -14,7 +14,8 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64
-from aion_cli.formats.track_csv import _seconds_to_ns, check_encoding, differenced
+from aion_cli.formats.track_csv import differenced
+from aion_cli.formats.track_parse import _seconds_to_ns, check_encoding
 from aion_cli.formats.track_tail import TAIL_BYTES
 from aion_cli.formats.track_types import NoTrackRowsError, TrackData, TracksFormatError
 from aion_cli.listing import first_few

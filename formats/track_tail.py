@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aion_cli.formats.track_csv import _SPECS, _data_lines, _split
+from aion_cli.formats.track_csv import _SPECS
+from aion_cli.formats.track_parse import _data_lines, _split
 
 #: bytes read from the end of the file: the last line and the lines before it
 TAIL_BYTES = 65_536
