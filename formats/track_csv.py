@@ -55,8 +55,12 @@ _SPECS: dict[str, _Spec] = {
         CANONICAL_COLUMNS, frozenset({0, 1}), frozenset({0, 1, 2, 3, 4}), ",", CANONICAL_HEADER
     ),
     # speed and motion angle finite too: a NaN or inf there was taken silently (an inf angle
-    # with numpy's "invalid value encountered in remainder" on stderr); the datasets have none
-    "atc": _Spec(ATC_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3, 4, 5}), ",", None),
+    # with numpy's "invalid value encountered in remainder" on stderr); the datasets have none.
+    # A negative speed too: it turned the row's velocity round (180 deg off its angle).
+    "atc": _Spec(
+        ATC_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3, 4, 5}), ",", None,
+        nonnegative_columns=frozenset({4}),
+    ),
     "eth": _Spec(ETH_COLUMNS, frozenset({1}), frozenset({0, 1, 2, 3}), None, None),
 }
 

@@ -27,8 +27,9 @@ from aion_cli.formats.track_types import LAYOUTS, NoTrackRowsError, TracksFormat
 @dataclass(frozen=True)
 class _Spec:
     """How to parse one layout: column names, which must be integers or finite, delimiter,
-    a fixed header line or a number of header lines to skip, and columns that are not read
-    (undocumented or constant ones, which may even be text)."""
+    a fixed header line or a number of header lines to skip, columns that are not read
+    (undocumented or constant ones, which may even be text), and columns that may not be
+    negative (speeds: a magnitude, whose direction is another column)."""
 
     columns: tuple[str, ...]
     int_columns: frozenset[int]
@@ -37,6 +38,7 @@ class _Spec:
     header: str | None
     header_lines: int = 0
     ignored_columns: frozenset[int] = frozenset()
+    nonnegative_columns: frozenset[int] = frozenset()
 
     @property
     def skip(self) -> int:
@@ -110,6 +112,8 @@ def _first_problem(path: Path, spec: _Spec) -> tuple[int, str] | None:
                 return lineno, f"{where} is not a number"
             if k in spec.finite_columns and not math.isfinite(value):
                 return lineno, f"{where} is not finite"
+            if k in spec.nonnegative_columns and value < 0:
+                return lineno, f"{where} is negative"
             if k in spec.int_columns and not value.is_integer():
                 return lineno, f"{where} is not an integer"
             if k in spec.int_columns and not abs(value) < _INT_LIMIT:
@@ -250,8 +254,8 @@ def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:
 
 
 def _checked_plain(path: Path, spec: _Spec, layout: str, data: F64) -> F64:
-    """``data`` (rows of the read columns) checked: column count, finite and integer columns;
-    the ignored columns come back as zeros."""
+    """``data`` (rows of the read columns) checked: column count, finite, non-negative and
+    integer columns; the ignored columns come back as zeros."""
     if data.shape[1] != len(spec.used):
         raise _fail(path, spec, layout, f"expected {len(spec.columns)} columns")
     arr: F64 = data
@@ -259,6 +263,7 @@ def _checked_plain(path: Path, spec: _Spec, layout: str, data: F64) -> F64:
         arr = np.zeros((len(data), len(spec.columns)))
         arr[:, list(spec.used)] = data  # ignored columns stay 0
     bad = ~np.isfinite(arr[:, sorted(spec.finite_columns)]).all(axis=1)
+    bad |= (arr[:, sorted(spec.nonnegative_columns)] < 0).any(axis=1)
     ints = arr[:, sorted(spec.int_columns)]
     if bad.any() or (ints != np.round(ints)).any() or not (np.abs(ints) < _INT_LIMIT).all():
         raise _fail(path, spec, layout)

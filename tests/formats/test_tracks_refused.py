@@ -304,3 +304,29 @@ def test_a_bad_line_names_the_layout_it_was_read_as(tmp_path: Path, layout: str)
         ft.read_tracks(path, layout)
     assert f"not a valid {layout} tracks file: line 2, column 4 (y)" in caught.value.message
     assert caught.value.hint == f"{layout} columns: frame, ped_id, x, y"
+
+
+@pytest.mark.parametrize("layout", ["atc", "thor"])
+def test_a_negative_speed_names_its_line(tmp_path: Path, layout: str) -> None:
+    """An ATC / THÖR speed is a magnitude (the direction is the motion angle): a negative one
+    is refused like a NaN, naming line and column, read whole, streamed in chunks and by
+    ``aion convert`` (one line, exit 2). Before, ``1351038020,1,0,0,-3,0`` was read without a
+    word and the row's velocity pointed 180 degrees away from its angle."""
+    from tests.cli.conftest import assert_one_line_error, run
+
+    rows = [f"{1351038020 + k},7,{0.5 * k},1.0,1.2,0.1" for k in range(9)]
+    rows[6] = "1351038026,7,3.0,1.0,-3,0"
+    rows.append("1351038030,7,4.5,1.0,-0.0,0.1")  # a signed zero is no negative speed
+    path = _write(tmp_path, "tracks.csv", "\n".join(rows) + "\n")
+    where = r"line 7, column 5 \(speed_mps\): '-3' is negative"
+    with pytest.raises(track_types.TracksFormatError, match=where):
+        ft.read_tracks(path, layout)
+    with pytest.raises(track_types.TracksFormatError, match=where):
+        list(track_csv.track_chunks(path, layout, rows=4))
+    result = run("convert", path, "--layout", layout, "-o", tmp_path / "x.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "line 7, column 5 (speed_mps): '-3' is negative")
+    assert not (tmp_path / "x.mcap").exists()
+    del rows[6]
+    fixed = _write(tmp_path, "fixed.csv", "\n".join(rows) + "\n")
+    assert len(ft.read_tracks(fixed, layout)) == 9
