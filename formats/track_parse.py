@@ -245,7 +245,26 @@ def _load(path: Path, spec: _Spec, layout: str, dtype: npt.DTypeLike, ndmin: Lit
         raise _fail(path, spec, layout, str(exc)) from exc
     if data.size == 0:
         raise NoTrackRowsError(f"{path}: no track rows", hint=_no_rows_hint(spec))
+    if spec.ignored_columns:
+        _check_widths(path, spec, layout)
     return data
+
+
+def _check_widths(path: Path, spec: _Spec, layout: str) -> None:
+    """Refuse a line with more or fewer columns than ``spec``'s, unread ones included: a read
+    that picks columns (``usecols``) takes ``t x y`` inside a ``t x y a b WPn`` file, and
+    one with a seventh field, without a word. Each field is kept as its first character
+    only (C speed, 4 bytes a field); :func:`_fail` names the first such line."""
+    try:
+        with warnings.catch_warnings(), path.open(encoding="utf-8-sig", errors="replace") as fh:
+            warnings.simplefilter("ignore", UserWarning)
+            fields = np.loadtxt(
+                fh, dtype="U1", delimiter=spec.delimiter, skiprows=spec.skip, ndmin=2
+            )
+    except ValueError as exc:
+        raise _fail(path, spec, layout, str(exc)) from exc
+    if fields.shape[1] != len(spec.columns):
+        raise _fail(path, spec, layout, f"expected {len(spec.columns)} columns")
 
 
 def _plain_columns(path: Path, spec: _Spec, layout: str) -> F64:

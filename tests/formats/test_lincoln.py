@@ -4,6 +4,7 @@ span helpers ``sessions`` / ``merge_spans``."""
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -173,6 +174,38 @@ def test_bad_lincoln_files(tmp_path: Path) -> None:
         datasets.read_lincoln(write(tmp_path / "nan.csv", nan_x))
     with pytest.raises(track_types.TracksFormatError, match="line 2: Lincoln files start"):
         datasets.read_lincoln(write(tmp_path / "comment.txt", ["# hello", f"{T0} 1 1"]))
+
+
+@pytest.mark.parametrize(
+    ("first", "other", "expected", "got"),
+    [
+        ("{t} 1 1 7.9 -1.1 WP3", "{t} 1.5 1", 6, 3),  # t x y inside a t x y a b WPn file
+        ("{t} 1 1 7.9 -1.1 WP3", "{t} 1.5 1 7.9 -1.1 WP3 9", 6, 7),
+        ("{t} 1 1 1.0", "{t} 1.5 1", 4, 3),
+        ("{t} 1 1 1.0", "{t} 1.5 1 1.0 1.0", 4, 5),
+        ("{t},0,1,1,0.5,0.1", "{t},0,1.5,1", 6, 4),
+    ],
+)
+def test_a_lincoln_row_of_the_wrong_width_names_its_line(
+    tmp_path: Path, first: str, other: str, expected: int, got: int
+) -> None:
+    """The 4- and 6-column variants read only ``t x y`` (and the CSV leaves out its id), but
+    a row with a column missing or one too many is no row of the variant: it is refused,
+    naming its line, as a wrong-width row of every other layout is, read and converted.
+    Before, such a row was read as a detection without a word."""
+    from tests.cli.conftest import assert_one_line_error, run
+
+    lines = [first.format(t=T0 + k) for k in range(4)] + [other.format(t=T0 + 4)]
+    path = write(tmp_path / "rows.txt", [*lines, first.format(t=T0 + 5)])
+    where = f"line 5: expected {expected} columns (time_s, "
+    with pytest.raises(track_types.TracksFormatError, match=re.escape(where)) as caught:
+        datasets.read_lincoln(path)
+    assert caught.value.message.endswith(f"got {got}")
+    result = run("convert", path, "--layout", "lincoln", "-o", tmp_path / "x.mcap")
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, where)
+    good = write(tmp_path / "good.txt", [first.format(t=T0 + k) for k in range(6)])
+    assert len(datasets.read_lincoln(good).batch) == 6
 
 
 # ----------------------------------------------------------------------------- spans
