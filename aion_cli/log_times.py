@@ -49,6 +49,7 @@ if TYPE_CHECKING:
 
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.stream_times import StreamTimes
+    from aion_cli.log_twins import AdapterOf
 
 STRAY_GAP_NS = 86_400 * 1_000_000_000
 """Gap between consecutive messages of a topic that starts a new run (one day)."""
@@ -437,21 +438,34 @@ def overlap_note(first: int, end_ns: int, logs: Sequence[Path], map_name: str) -
     )
 
 
-def overlap_warnings(logset: Any, topics: set[str], window_ns: int) -> list[str]:
+def overlap_warnings(
+    logset: Any, topics: set[str], window_ns: int, adapter_of: AdapterOf | None = None
+) -> list[str]:
     """A warning per pair of logs that hold the same detection topics over the same time (one
-    window or more): people both saw count twice. Fine for two robots walking the same
-    frame at once; a double count when one log repeats the other (a copy, an excerpt, a file
-    merged from others), which aion cannot tell from the times (identical files are already
-    read once)."""
+    window or more) *and the same detections* there (:func:`aion_cli.log_twins.same_people`,
+    decoded with ``adapter_of``, the build's adapters): people both saw count twice, as
+    when one log repeats the other (a copy, an excerpt, a file merged from others; identical
+    files are already read once). Logs of the same time that hold other people (two
+    sensors, two robots, the train and test splits of one recording) do not warn; nor do
+    logs whose detections have no stamp in common (nothing tells them apart then). Without
+    ``adapter_of`` (or when the comparison cannot decode them) the shared time alone warns."""
+    from aion_cli.errors import AionError
+    from aion_cli.log_twins import same_people
     from aion_cli.number_text import span_text
 
     out = []
     for o in logset.overlaps(topics, window_ns):
+        try:
+            same = True if adapter_of is None else same_people(logset, o, adapter_of)
+        except AionError:  # a message it cannot decode: the build will say; warn as before
+            same = True
+        if not same:
+            continue
         shared = span_text((o.end_ns - o.start_ns) / 1e9)  # as info gives spans: "0.3 s"
         out.append(
             f"{o.first.path.name} and {o.second.path.name} both hold {', '.join(o.topics)} "
-            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({shared}): the people both "
-            "logs saw count twice; if one repeats the other (a copy, an excerpt, a merged "
-            "file), build from one of them"
+            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({shared}), with the same people "
+            "at the same times and places: the people both logs saw count twice; if one "
+            "repeats the other (a copy, an excerpt, a merged file), build from one of them"
         )
     return out

@@ -300,11 +300,13 @@ class _Build(StreamStep):
                 raise no_detection_topic(logset, plan)
             self.report.detection_topics = sorted(plan.names("detections"))
             self.report.warnings.extend(getattr(logset, "warnings", []))  # lost or odd input
-            self.report.warnings.extend(
-                overlap_warnings(logset, plan.names("detections"), window_ns(config.window_s))
-            )
             self._adapters, self._factory, notes = log_adapters(
                 logset, plan.detections, plan.mappings
+            )
+            adapter_of = lambda *key: self._adapters.get(key) or self._factory(*key)  # noqa: E731
+            self.report.warnings.extend(  # logs of one time holding the same detections
+                overlap_warnings(logset, plan.names("detections"), window_ns(config.window_s),
+                                 adapter_of)
             )
             self.report.notes.extend(notes)
             self.continue_on_logs(logset, plan)  # the logs' graphs: the map's session?

@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
 from operator import attrgetter
 from pathlib import Path
 from types import TracebackType
@@ -56,23 +55,12 @@ from aion_cli.formats.typestores import _store_with_definition
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
+    from aion_cli.formats.log_overlaps import Overlap
     from aion_cli.formats.recorded import Windows
     from aion_cli.formats.stream_times import StreamTimes
 
 
 # --- the merged set -------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Overlap:
-    """Two files of a :class:`LogSet` on the same topics at the same time
-    (:meth:`LogSet.overlaps`): ``[start_ns, end_ns]`` is the time both cover."""
-
-    first: LogFile
-    second: LogFile
-    start_ns: int
-    end_ns: int
-    topics: tuple[str, ...]
 
 
 class LogSet:
@@ -171,25 +159,11 @@ class LogSet:
         return covered_ns(self.recording_times().values())
 
     def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
-        """Pairs of files that both carry a topic of ``topics`` and whose time ranges (first
-        to last message) share at least ``at_least_ns``, or at least half of the shorter
-        one's (a log shorter than a window, converted twice into two containers, shares it
-        whole): two logs of one moment on the same topic (two robots at once, or one
-        recording twice: a copy, an excerpt, a merged file), in file order."""
-        carried = [
-            sorted({t.topic for t in s.topics.values() if t.topic in topics and t.count})
-            for s in self._sources
-        ]
-        out: list[Overlap] = []
-        for i, a in enumerate(self.files):
-            for j in range(i + 1, len(self.files)):
-                b = self.files[j]
-                shared = sorted(set(carried[i]) & set(carried[j]))
-                lo, hi = max(a.start_ns, b.start_ns), min(a.end_ns, b.end_ns)
-                shorter = min(a.end_ns - a.start_ns, b.end_ns - b.start_ns)
-                if shared and hi > lo and hi - lo >= min(at_least_ns, shorter / 2):
-                    out.append(Overlap(a, b, lo, hi, tuple(shared)))
-        return out
+        """Pairs of files on a topic of ``topics`` at the same time, at least ``at_least_ns``
+        or half of the shorter one's (:func:`formats.log_overlaps.find_overlaps`)."""
+        from aion_cli.formats.log_overlaps import find_overlaps
+
+        return find_overlaps(self, topics, at_least_ns)
 
     def topic(self, name: str) -> TopicInfo:
         """The topic called ``name``; :class:`TopicNotFoundError` lists the log's topics."""

@@ -62,7 +62,7 @@ def describe(
         report["declared_zones"] = declared_zones(list(distinct.logs))
         if plan.detections:
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
-            report["warnings"] += _overlaps(logset, plan.names("detections"))
+            report["warnings"] += _overlaps(logset, plan)
         else:
             from aion_cli.topics import mapping_example
 
@@ -98,14 +98,24 @@ def _leave_out_strays(summary: Any, logset: Any) -> None:
     summary.warnings.append(check.warning())
 
 
-def _overlaps(logset: Any, topics: set[str]) -> list[str]:
+def _overlaps(logset: Any, plan: Any) -> list[str]:
     """The warnings ``aion build`` gives of logs that hold a detection topic over the same
-    time (their people count twice), over the default model's windows."""
+    time with the same people (they count twice), over the default model's windows, the
+    detections compared with the adapters the build would use."""
+    from aion_cli.detection_feed import log_adapters
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.windows import window_ns
+    from aion_cli.errors import AionError
     from aion_cli.log_times import overlap_warnings
 
-    return overlap_warnings(logset, topics, window_ns(ModelConfig().window_s))
+    try:
+        adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
+    except AionError:  # the build will stop on it; the shared time alone warns, as it did
+        return overlap_warnings(logset, plan.names("detections"), window_ns(ModelConfig().window_s))
+    return overlap_warnings(
+        logset, plan.names("detections"), window_ns(ModelConfig().window_s),
+        lambda *key: adapters.get(key) or factory(*key),
+    )
 
 
 def _recorded_spans(logs: Any) -> dict[str, list[dict[str, Any]]]:

@@ -1,0 +1,62 @@
+"""Logs of the same hour on the same topic warn that their people "count twice" only when
+they hold the same detections (``aion_cli.log_twins``).
+
+Before: the warning came from the time spans alone, so the ATC train and test splits of one
+hour (converted apart; 90/10 split by person, no person in both) were said to hold the same
+people. A log repeated in another container, or inside a merged file, still warns."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from tests.robustness.conftest import T0, Message, S, build_json, person, write_log
+
+MINUTES = 15
+
+
+def _people(
+    tracks: range, seconds: int = MINUTES * 60, late_ns: int = 0, digits: int = 9, ids: int = 0
+) -> list[Message]:
+    """One message per person and second: person k walks a circle of its own (radius k m);
+    ``late_ns`` later, rounded to ``digits`` and its track ids ``ids`` on (another processing
+    of the same recording)."""
+    out = []
+    for s in range(seconds):
+        for k in tracks:
+            a = 0.01 * s + k
+            xy = round(k * math.cos(a), digits), round(k * math.sin(a), digits)
+            out.append(person(T0 + s * S + late_ns, (*xy, 0.0), track=k + ids))
+    return out
+
+
+def _twice(report: dict[str, object]) -> list[str]:
+    warnings = report["warnings"]
+    assert isinstance(warnings, list)
+    return [w for w in warnings if "both hold /tracks" in w and "count twice" in w]
+
+
+def test_a_split_by_person_of_one_hour_does_not_warn(tmp_path: Path) -> None:
+    train = write_log(tmp_path / "train.mcap", _people(range(1, 10)))
+    test = write_log(tmp_path / "test.mcap", _people(range(10, 12)))
+    report = build_json(train, test, "-o", tmp_path / "split.aion", "--workers", "1")
+    assert _twice(report) == []
+    assert report["detections"]["used"] == 11 * MINUTES * 60  # each person once
+
+
+def test_a_log_repeated_in_another_container_or_a_merged_file_warns(tmp_path: Path) -> None:
+    one = _people(range(1, 4))
+    log = write_log(tmp_path / "run.mcap", one)
+    bag = write_log(tmp_path / "run.bag", one, "bag")
+    report = build_json(log, bag, "-o", tmp_path / "copy.aion", "--workers", "1")
+    (warning,) = _twice(report)
+    assert warning.startswith("run.mcap and run.bag both hold /tracks from ")
+    assert report["detections"]["used"] == 2 * 3 * MINUTES * 60  # what it warns of
+    others = _people(range(5, 8))
+    merged = write_log(tmp_path / "merged.mcap", sorted(one + others, key=lambda m: m[3]))
+    # Lincoln's 2017-05-24_25 and 2017-05-25 files: other stamps, other rounding, other ids
+    again = _people(range(1, 4), late_ns=60_000_000, digits=4, ids=100)
+    again_log = write_log(tmp_path / "again.mcap", again)
+    for pair in ((log, merged), (merged, log), (log, again_log)):
+        report = build_json(*pair, "-o", tmp_path / "merged.aion", "--workers", "1")
+        assert len(_twice(report)) == 1
