@@ -29,7 +29,8 @@ def test_bags_sharing_under_a_second_say_how_long(tmp_path: Path) -> None:
                       "right_laser", "--workers", "1", "--format", "json")  # fmt: skip
     (warning,) = [w for w in report["warnings"] if "count twice" in w]
     assert warning.startswith(f"{one.name} and {two.name} both hold /leg_cluster_positions ")
-    assert f"({shared_s:.1f} s): the people both logs saw count twice" in warning
+    assert f"({shared_s:.1f} s), with the same people at the same times and places: the " \
+        "people both logs saw count twice" in warning
     assert "h)" not in warning
 
 
