@@ -135,8 +135,9 @@ def command(
 ) -> None:
     """Show the format, duration and topics of LOGS and what aion will use from them.
 
-    Given a map (.aion) instead, show what it was built from and with; given a scene-graph
-    file (.json, .sparkdsg), its layers and the navigational graph aion takes from it.
+    Given a map (.aion, or a map under any name) instead, show what it was built from and
+    with; given a scene-graph file (.json, .sparkdsg), its layers and the navigational graph
+    aion takes from it.
     """
     from aion_cli.errors import InputError
 
@@ -162,7 +163,10 @@ def command(
         _refuse_options(given, ("--nav-layer",), "a scene-graph file")
     if _show_graph_files(logs, nav_layer, fmt):
         return
-    maps = [p for p in logs if p.suffix == MAP_SUFFIX and p.is_file()]
+    from aion_cli.formats.input_kind import input_kind
+
+    # a map by its name or by its content (compact/build -o x.map writes a map of any name)
+    maps = [p for p in logs if p.is_file() and (p.suffix == MAP_SUFFIX or input_kind(p) == "map")]
     if maps and len(maps) != len(logs):
         raise InputError(
             "give either logs or maps, not both",
