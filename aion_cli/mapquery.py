@@ -289,3 +289,43 @@ def export_map(
         flow_scale=flow_scale,
         cells_dominant_angle=scene.cells_angle,
     )
+
+
+def state_entry_counts(state: MapState) -> tuple[int, int]:
+    """The entries of ``state`` (places and hash cells with a model) and the latest graph's
+    places that hold none (``aion predict`` lists them too, with family "none"): what
+    :func:`entries_text` says."""
+    from aion_cli.engine.query import places_without_entry
+
+    entries = state.entries
+    graph = latest_graph(state)
+    kind, node_id = entries.kind[: entries.n], entries.node_id[: entries.n]
+    without = 0 if graph is None else places_without_entry(kind, node_id, graph.places.ids)
+    return len(entries.live_rows()), without
+
+
+def entry_counts(path: Path | str) -> tuple[int, int]:
+    """:func:`state_entry_counts` of the map at ``path`` from its graph and two entry
+    members, without reading its accumulators."""
+    from aion_cli.engine.entries import FREE
+    from aion_cli.engine.query import places_without_entry
+    from aion_cli.formats.mapfile import open_map
+
+    graph = load_map_head(path).graph
+    with open_map(path) as members:
+        names = set(members)
+        if "entry_kind" not in names:
+            return 0, 0 if graph is None else len(graph.places)
+        kind = np.asarray(members["entry_kind"])
+        node_id = np.asarray(members["entry_node_id"])
+    without = 0 if graph is None else places_without_entry(kind, node_id, graph.places.ids)
+    return int(np.count_nonzero(kind != FREE)), without
+
+
+def entries_text(entries: int, without: int) -> str:
+    """How ``info``, ``compact`` and ``report`` give a map's entries: ``365 (+37 places
+    without data)``; the places without data are rows of ``aion predict`` and
+    ``entries.csv`` (family "none") that hold no entry."""
+    if not without:
+        return f"{entries:,}"
+    return f"{entries:,} (+{without:,} place{'s' if without != 1 else ''} without data)"

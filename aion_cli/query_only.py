@@ -43,6 +43,8 @@ class CompactReport:
     source_bytes: int = 0
     map_bytes: int = 0
     entries: int = 0
+    #: the latest graph's places that hold no entry (predict lists them, family "none")
+    places_without_data: int = 0
     left_out: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
@@ -67,6 +69,7 @@ class CompactReport:
             "map_bytes": self.map_bytes,
             "ratio": ratio,
             "entries": self.entries,
+            "places_without_data": self.places_without_data,
             "bytes_per_entry": self.map_bytes / self.entries if self.entries else None,
             "left_out": self.left_out,
             "notes": self.notes,
@@ -117,7 +120,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
     atomically)."""
     from aion_cli.engine.temporal import components
     from aion_cli.formats.mapfile import RESERVED_KEYS, check_map_output, open_map, write_map
-    from aion_cli.mapquery import check_map_input
+    from aion_cli.mapquery import check_map_input, entry_counts
     from aion_cli.provenance import provenance
 
     check_map_input(source)
@@ -151,8 +154,9 @@ def compact_map(source: Path, output: Path) -> CompactReport:
         arrays = {n: members[n] for n in names if n not in LEFT_OUT}
         record = {"from": provenance(source), "left_out": left_out}
         fields = {k: v for k, v in manifest.items() if k not in RESERVED_KEYS}
-        entries = int(arrays["entry_kind"].shape[0]) if "entry_kind" in arrays else 0
         write_map(output, arrays, fields | {FIELD: record})
+    entries, without = entry_counts(output)
     return CompactReport(
-        source, output, source.stat().st_size, output.stat().st_size, entries, left_out, notes
+        source, output, source.stat().st_size, output.stat().st_size, entries, without,
+        left_out, notes,
     )

@@ -26,7 +26,8 @@ refused.
 
 \b
 JSON keys (--format json): map, source, source_bytes, map_bytes, ratio, entries,
-bytes_per_entry, left_out, notes.
+places_without_data (places of the graph that hold no entry; predict lists them with family
+"none"), bytes_per_entry, left_out, notes.
 """
 
 
@@ -59,6 +60,7 @@ def _print(summary: dict[str, Any]) -> None:
 
     from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
+    from aion_cli.mapquery import entries_text
 
     table = Table(
         title=f"query-only map {markup_safe(summary['map'])}",
@@ -75,9 +77,9 @@ def _print(summary: dict[str, Any]) -> None:
         human_size(summary["map_bytes"]) + (f" ({ratio:.1f}x smaller)" if ratio else ""),
     )
     per = summary["bytes_per_entry"]
-    table.add_row(
-        "entries", f"{summary['entries']:,}" + (f" ({human_size(int(per))} each)" if per else "")
-    )
+    table.add_row("entries", entries_text(summary["entries"], summary["places_without_data"]))
+    if per:
+        table.add_row("size per entry", human_size(int(per)))
     left_out = summary["left_out"]
     table.add_row(
         "left out (for learning)",

@@ -62,8 +62,10 @@ detection topic: a topic --suggest-mapping writes a mapping for, or null), with 
 verified{messages_read} (every message read as a build reads them; chunks that cannot be read
 are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
-time_span, counts (all builds), last_build, graph_source, observation, families (how many
-entries each temporal model family forecasts, flow and direction), timezone, config, map_frame,
+time_span, counts (all builds), entries and places_without_data (the graph's places that hold
+no entry: predict lists them too, family none; null when unreadable), last_build,
+graph_source, observation, families (how many entries each temporal model family forecasts,
+flow and direction), timezone, config, map_frame,
 nav_layer (the graph layer of its places: places, mesh_places, ...; null without a graph),
 rooms[{id, name, places}], buildings[{id, name, rooms}], warnings (a state and graph that
 cannot be read: why nav_layer, rooms and buildings are empty),

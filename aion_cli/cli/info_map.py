@@ -15,13 +15,28 @@ from aion_cli.listing import first_few
 def describe_map(path: Path) -> dict[str, Any]:
     """The manifest of a map file without the internal tables
     (:meth:`aion_cli.manifest.Manifest.shown`), and the rooms of its scene graph with their
-    names (``plan --from kitchen`` takes them). Cheap: of the arrays only the graph's are
-    read, never the entries or accumulators."""
+    names (``plan --from kitchen`` takes them). Cheap: of the arrays only the graph's and
+    the entries' kinds and node ids are read, never the accumulators."""
     from aion_cli.formats.mapfile import read_manifest
     from aion_cli.manifest import Manifest
 
     shown = Manifest.from_dict(read_manifest(path)).shown()
-    return {"map": str(path)} | shown | _hierarchy(path)
+    return {"map": str(path)} | shown | _entries(path) | _hierarchy(path)
+
+
+def _entries(path: Path) -> dict[str, int | None]:
+    """``entries`` (places and hash cells with a model) and ``places_without_data`` (the
+    graph's places holding none, rows of ``aion predict`` too) as compact and report count
+    them (:func:`aion_cli.mapquery.entry_counts`: two entry members and the graph); None when
+    the map cannot be read (:func:`_hierarchy` warns why)."""
+    from aion_cli.errors import AionError
+    from aion_cli.mapquery import entry_counts
+
+    try:
+        entries, without = entry_counts(path)
+    except AionError:
+        return {"entries": None, "places_without_data": None}
+    return {"entries": entries, "places_without_data": without}
 
 
 def verify_map(path: Path) -> dict[str, Any]:
@@ -131,6 +146,10 @@ def print_map(report: dict[str, Any]) -> None:
         if count:  # as the build's summary names them
             table.add_row(f"  dropped: {safe(reason)}", f"{count:,}")
     table.add_row("nodes / cells", f"{counts.get('nodes', 0):,} / {counts.get('cells', 0):,}")
+    if report.get("entries") is not None:
+        from aion_cli.mapquery import entries_text
+
+        table.add_row("entries", entries_text(report["entries"], report["places_without_data"]))
     if "windows" in counts:  # as the build's summary counted them (mapquery.state_counts)
         table.add_row("windows observed", f"{counts['windows']:,}")
     layer = report.get("nav_layer")

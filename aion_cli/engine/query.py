@@ -244,6 +244,14 @@ def _descriptors(
     return replace(desc, flow_per_window=flow, flow_per_hour=flow * (3600.0 / window_s))
 
 
+def places_without_entry(kind: npt.NDArray[np.int8], node_id: U64, place_ids: U64) -> int:
+    """How many of the latest graph's places (``place_ids``) hold no entry (``kind`` and
+    ``node_id`` per entry row, ``FREE`` rows included and skipped): the rows :func:`_table`
+    adds with zero flow and family "none", so ``aion predict`` lists entries plus these."""
+    live = node_id[(kind == NODE) | (kind == CELL)]
+    return int(np.count_nonzero(~np.isin(place_ids, live)))
+
+
 def _table(
     state: MapState,
     rows: np.ndarray,

@@ -90,7 +90,7 @@ class ReportContent:
 
     map_name: str
     shown: dict[str, Any]
-    counts: dict[str, int]
+    counts: dict[str, int | str]
     zone: Zone
     t_ns: int | None
     observed: Observed
@@ -131,9 +131,12 @@ def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> Re
     )
 
 
-def map_counts(loaded: LoadedMap, shown: dict[str, Any]) -> dict[str, int]:
+def map_counts(loaded: LoadedMap, shown: dict[str, Any]) -> dict[str, int | str]:
     """Places, rooms, buildings (the latest scene graph), hash cells, entries and detections
-    (the manifest's counts, as ``aion info`` shows them)."""
+    (the manifest's counts, as ``aion info`` shows them; the entries in info's and compact's
+    words, :func:`aion_cli.mapquery.entries_text`)."""
+    from aion_cli.mapquery import entries_text, state_entry_counts
+
     counts = shown.get("counts") or {}
     graph = loaded.graph
     return {
@@ -143,7 +146,7 @@ def map_counts(loaded: LoadedMap, shown: dict[str, Any]) -> dict[str, int]:
         "buildings": len(graph.buildings) if graph is not None else 0,
         "hash cells": int(counts.get("cells", 0)),
         "cells bound to places": int(counts.get("bound_cells", 0)),
-        "entries": len(loaded.state.entries.live_rows()),
+        "entries": entries_text(*state_entry_counts(loaded.state)),
         "detections read": int(counts.get("read", 0)),
         "detections accepted": int(counts.get("used", 0)),
         WINDOWS_OBSERVED: int(counts.get("windows", 0)),

@@ -207,12 +207,15 @@ def test_the_text_summary_says_what_was_done(maps: Maps, tmp_path: Path) -> None
     ratio = maps.full.stat().st_size / out.stat().st_size
     with open_map(out) as members:
         entries = len(members["entry_kind"])  # one row per entry the map answers for
+    places = len(run_json("predict", out, "--historical", "--format", "json")["entries"])
+    without = places - entries  # predict's rows: the entries and the places that hold none
     for shown in (
         f"query-only map {out}",
         f"made from │ {maps.full}",
         f"full map size │ {kib[0]}",
         f"query-only size │ {kib[1]} ({ratio:.1f}x smaller)",
-        f"entries │ {entries:,} (",
+        f"entries │ {entries:,}" + (f" (+{without} places without data)" if without else " │"),
+        "size per entry │",
     ):
         assert shown in text, (shown, text)
     assert all(name in text for name in gone), (gone, text)
