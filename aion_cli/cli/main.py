@@ -29,7 +29,7 @@ Examples:
   aion info run.mcap                                   what is in a log, what aion will use
   aion build run1.mcap run2.bag -o office.aion         learn a map (incremental with --map)
   aion merge mon.aion tue.aion -o week.aion            one map from maps of disjoint time
-  aion compact week.aion -o robot.aion                 a smaller map for queries only
+  aion compact week.aion -o robot.aion                 a map for queries only (smaller with history)
   aion predict office.aion --time "2026-11-23 08:30"   flows per node at a time
   aion plan office.aion --from p12 --to p87            a path around busy, opposing flows
   aion export office.aion --time "+2h" -o out/         PLY/PCD scenes, CSV/JSON tables

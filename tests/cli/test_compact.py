@@ -234,3 +234,23 @@ def test_an_existing_map_at_o_is_replaced_with_a_note(maps: Maps, tmp_path: Path
     assert read_manifest(target)["query_only"]["from"]["name"] == maps.full.name
     again = run_json("compact", maps.full, "-o", target, "--format", "json")
     assert again["notes"] == ["robot.aion existed and is replaced"]
+
+
+def test_a_map_of_one_day_is_not_called_smaller(tmp_path: Path) -> None:
+    """A map of the short office log has no day of history closed for scoring, so the Fourier
+    sums compact leaves out hold almost nothing: the copy is about the map's size, yet the
+    summary said "(1.0x smaller)" and the docs "several times smaller". It now says "about the
+    same size" and why; the 21-day map above still reads "x smaller"."""
+    log = tmp_path / "day.mcap"
+    write_office_log(log)
+    full = tmp_path / "day.aion"
+    assert run("build", log, "-o", full, "-q").exit_code == 0
+    out = tmp_path / "robot.aion"
+    result = run("compact", full, "-o", out)
+    assert result.exit_code == 0, result.stderr
+    ratio = full.stat().st_size / out.stat().st_size
+    assert ratio < 1.05  # measured here, from the two files
+    text = " ".join(result.stderr.split())
+    assert "x smaller" not in text
+    assert "(about the same size)" in text
+    assert "days of history closed for scoring" in text
