@@ -192,6 +192,23 @@ def test_a_part_map_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "robot.aion").exists()
 
 
+def _table_cells(text: str) -> dict[str, str]:
+    """The rows of a two-column rich table in ``text``: first cell -> second, a cell wrapped
+    onto more rows (an empty first cell) joined again with the spaces it was wrapped at."""
+    cells: dict[str, str] = {}
+    what = ""
+    for line in text.splitlines():
+        if not line.startswith("│"):
+            continue
+        left, right = (c.strip() for c in line.strip().strip("│").split("│"))
+        if left:
+            what = left
+            cells[what] = right
+        else:
+            cells[what] += " " + right
+    return cells
+
+
 def test_the_text_summary_says_what_was_done(maps: Maps, tmp_path: Path) -> None:
     """Without --format json compact printed one "wrote" line: its sizes, not what it left out
     nor for how many entries. It now closes with a table as build and merge do: the map made
@@ -209,9 +226,10 @@ def test_the_text_summary_says_what_was_done(maps: Maps, tmp_path: Path) -> None
         entries = len(members["entry_kind"])  # one row per entry the map answers for
     places = len(run_json("predict", out, "--historical", "--format", "json")["entries"])
     without = places - entries  # predict's rows: the entries and the places that hold none
+    # the table wraps a long cell at its spaces (a path with spaces in it) onto rows of its own
+    assert _table_cells(result.stderr)["made from"] == str(maps.full)
     for shown in (
         f"query-only map {out}",
-        f"made from │ {maps.full}",
         f"full map size │ {kib[0]}",
         f"query-only size │ {kib[1]} ({ratio:.1f}x smaller)",
         f"entries │ {entries:,}" + (f" (+{without} places without data)" if without else " │"),
