@@ -95,6 +95,12 @@ def assert_one_line_error(stderr: str, *fragments: str) -> None:
         assert fragment in errors[0], (fragment, stderr)
 
 
+def warning_lines(stderr: str) -> list[str]:
+    """The ``warning: ...`` lines of ``stderr`` (a bare "warning" may be in a path the output
+    names, such as pytest's folder for a test with "warning" in its name)."""
+    return [line for line in stderr.splitlines() if line.startswith("warning:")]
+
+
 @pytest.fixture(scope="session")
 def office(tmp_path_factory: pytest.TempPathFactory) -> Office:
     folder = tmp_path_factory.mktemp("office")
