@@ -5,6 +5,7 @@ The ids offered are the map's own (read back from its graph), in natural order."
 from __future__ import annotations
 
 import os
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -14,8 +15,9 @@ from tests.cli.conftest import AION, Office
 
 
 def _complete(line: str, shell: str = "bash", cword: str | None = None) -> list[str]:
-    """What the shell would offer for the last word of ``line`` (bash: every word's index)."""
-    words = line.split(" ")
+    """What the shell would offer for the last word of ``line`` (bash: every word's index;
+    a line ending in a space completes an empty word)."""
+    words = shlex.split(line) + ([""] if line.endswith(" ") else [])
     env = {
         **os.environ,
         "_AION_COMPLETE": f"{shell}_complete",
@@ -31,6 +33,12 @@ def _complete(line: str, shell: str = "bash", cword: str | None = None) -> list[
     return [item.split(",", 1)[1] for item in out] if shell == "bash" else out
 
 
+def _word(path: Path) -> str:
+    """``path`` as typed on a command line: quoted when it holds a space (pytest's temporary
+    folder is under the base temp folder, which may have one)."""
+    return shlex.quote(str(path))
+
+
 def _labels(ids: object) -> set[str]:
     return set(node_labels(ids).tolist())  # type: ignore[arg-type]
 
@@ -39,13 +47,13 @@ def test_plan_completes_the_maps_places(office: Office) -> None:
     graph = load_map(office.map).graph
     assert graph is not None
     places = _labels(graph.places.ids)
-    offered = _complete(f"aion plan {office.map} --from p")
+    offered = _complete(f"aion plan {_word(office.map)} --from p")
     assert set(offered) == places
     numbers = [int(label[1:]) for label in offered]
     assert numbers == sorted(numbers)  # natural order: p2 before p10
-    with_one = _complete(f"aion plan {office.map} --time now --to p1")
+    with_one = _complete(f"aion plan {_word(office.map)} --time now --to p1")
     assert set(with_one) == {p for p in places if p.startswith("p1")}
-    assert _complete(f"aion export {office.map} --path-from p1") == with_one
+    assert _complete(f"aion export {_word(office.map)} --path-from p1") == with_one
 
 
 def test_rooms_and_buildings_are_completed_too(office: Office) -> None:
@@ -54,22 +62,22 @@ def test_rooms_and_buildings_are_completed_too(office: Office) -> None:
     rooms = _labels(graph.rooms.ids)
     assert rooms
     names = {"room0", "room1", "room2"}  # the graph's names: any case matches them
-    assert set(_complete(f"aion predict {office.map} --node R")) == rooms | names
-    assert set(_complete(f"aion plan {office.map} --from R")) == rooms | names  # plan too
+    assert set(_complete(f"aion predict {_word(office.map)} --node R")) == rooms | names
+    assert set(_complete(f"aion plan {_word(office.map)} --from R")) == rooms | names  # plan too
 
 
 def test_fish_passes_the_line_up_to_the_current_word(office: Office) -> None:
-    line = f"aion plan {office.map} --from p1"
+    line = f"aion plan {_word(office.map)} --from p1"
     offered = _complete(line, shell="fish", cword="p1")
     assert {o.split(",", 1)[-1] for o in offered} == set(_complete(line))
 
 
 def test_nothing_is_offered_without_a_readable_map(tmp_path: Path) -> None:
     assert _complete("aion plan --from p") == []
-    assert _complete(f"aion plan {tmp_path / 'missing.aion'} --from p") == []
+    assert _complete(f"aion plan {_word(tmp_path / 'missing.aion')} --from p") == []
     damaged = tmp_path / "damaged.aion"
     damaged.write_bytes(b"PK\x03\x04 not really a map")
-    assert _complete(f"aion predict {damaged} --node p") == []
+    assert _complete(f"aion predict {_word(damaged)} --node p") == []
 
 
 def test_room_names_are_completed_as_the_commands_read_them(office: Office) -> None:
@@ -77,8 +85,8 @@ def test_room_names_are_completed_as_the_commands_read_them(office: Office) -> N
     and every one is accepted by plan as the room it names."""
     graph = load_map(office.map).graph
     assert graph is not None
-    offered = _complete(f"aion plan {office.map} --from ROOM")
+    offered = _complete(f"aion plan {_word(office.map)} --from ROOM")
     assert offered == ["room0", "room1", "room2"]
-    assert _complete(f"aion predict {office.map} --node room1") == ["room1"]
-    everything = _complete(f"aion plan {office.map} --from ")
+    assert _complete(f"aion predict {_word(office.map)} --node room1") == ["room1"]
+    everything = _complete(f"aion plan {_word(office.map)} --from ")
     assert everything[-3:] == offered  # names after the ids
