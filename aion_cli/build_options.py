@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import re
+import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -176,8 +177,8 @@ def check_not_an_input(out: Path, logs: tuple[Path, ...]) -> None:
     if input_kind(out) == "map":
         raise LogFormatError(
             f"{out} is an aion map, not a log",
-            hint=f"extend it with `aion build LOG --map {out}`, query it with "
-            f"`aion predict {out}`",
+            hint=f"extend it with `aion build LOG --map {shlex.quote(str(out))}`, query it with "
+            f"`aion predict {shlex.quote(str(out))}`",
         )
     raise InputError(
         f"the map would overwrite the log {out}",

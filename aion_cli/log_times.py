@@ -29,6 +29,7 @@ none where the times come as arrays from a log's index (:meth:`TopicTimes.add_st
 
 from __future__ import annotations
 
+import shlex
 from array import array
 from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
@@ -411,8 +412,9 @@ def check_after_open(
     clocks = other_clock_error(names, log_start_ns, open_start, int(t_ns.min()))
     if clocks is not None:
         raise clocks
-    listed = " ".join([*map_inputs[:3], *(["..."] if len(map_inputs) > 3 else [])])
-    listed += " " + " ".join(str(p) for p in logs[:3])
+    # paths quoted as a shell needs them (a space in a folder's name)
+    words = [*map(shlex.quote, map_inputs[:3]), *(["..."] if len(map_inputs) > 3 else [])]
+    listed = " ".join([*words, *(shlex.quote(str(p)) for p in logs[:3])])
     raise InputError(
         f"the {what}s of {', '.join(p.name for p in logs)} start at "
         f"{iso(int(t_ns.min()))}, but {map_name} has already closed every "

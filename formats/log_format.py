@@ -7,6 +7,7 @@ files; otherwise the first bytes decide, :func:`formats.rosbag2_storage.sniff`) 
 from __future__ import annotations
 
 import re
+import shlex
 from pathlib import Path
 
 from aion_cli.errors import LogFormatError
@@ -192,18 +193,19 @@ def _what_else(path: Path) -> str | None:
             f"{truth.group(1)}: build from the log alone (`aion evaluate` reads the truth)"
         )
     kind = input_kind(path)
+    word = shlex.quote(name)  # the name in a command to paste
     if kind == "map":
         return (
-            f"{name} is an aion map, not a log: extend it with `aion build LOG --map {name}`, "
-            f"query it with `aion predict {name}`"
+            f"{name} is an aion map, not a log: extend it with `aion build LOG --map {word}`, "
+            f"query it with `aion predict {word}`"
         )
     if kind == "graph":
-        return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {name}"
+        return f"{name} looks like a scene-graph file: give it to `aion build` with --graph {word}"
     guess = guess_layout(path) if kind is None else None
     if guess is not None:
         return (
             f"{name} looks like a tracks file in {guess.describe()}: make it a log first, "
-            f"`aion convert {name} --layout {guess.layout} -o {path.stem}.mcap`"
+            f"`aion convert {word} --layout {guess.layout} -o {shlex.quote(path.stem + '.mcap')}`"
         )
     return None
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shlex
 import zipfile
 import zlib
 from pathlib import Path
@@ -49,15 +50,16 @@ def _what_it_is(path: Path) -> str | None:
     from aion_cli.formats.scene_mcap import is_scene_mcap
 
     name = path.name
+    word = shlex.quote(name)  # the name in a command to paste
     kind = input_kind(path)
     if kind == "log" and is_scene_mcap(path):  # not a log: aion export's own
         return f"{name} is a scene aion exported from a map: give that map (.aion) instead"
     if kind == "log":
-        return f"{name} is a log: build a map from it first, `aion build {name} -o MAP.aion`"
+        return f"{name} is a log: build a map from it first, `aion build {word} -o MAP.aion`"
     if kind == "graph":
         return (
-            f"{name} looks like a scene-graph file: `aion info {name}` shows it; a map is built "
-            f"from logs with it, `aion build LOG --graph {name} -o MAP.aion`"
+            f"{name} looks like a scene-graph file: `aion info {word}` shows it; a map is built "
+            f"from logs with it, `aion build LOG --graph {word} -o MAP.aion`"
         )
     return None
 

@@ -38,6 +38,7 @@ import contextlib
 import hashlib
 import os
 import re
+import shlex
 import shutil
 import stat
 import tempfile
@@ -179,7 +180,7 @@ def check_output_folder(
         )
     raise error(
         f"cannot write {named or path}: the folder {folder} does not exist",
-        hint=f"create it first (mkdir -p {folder}) or choose another path",
+        hint=f"create it first (mkdir -p {shlex.quote(str(folder))}) or choose another path",
     )
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -337,8 +338,8 @@ def command(
     if tz is not None and zone.name != "UTC":
         # the log carries the zone: aion build takes it unless its own --tz says otherwise
         note(
-            f"the log carries the zone {zone.name}: aion build {output.name} makes a map whose "
-            f"days and hours of the day are {zone.name}'s without --tz"
+            f"the log carries the zone {zone.name}: aion build {shlex.quote(output.name)} makes a "
+            f"map whose days and hours of the day are {zone.name}'s without --tz"
         )
     elif tz is None:
         _note_utc_times(layout, output, start_text is not None, bool(observed_text))
@@ -358,7 +359,8 @@ def _note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> N
         place, home = HOME_ZONES[layout]
         note(
             f"{layout}: the dataset was recorded in {place} ({home}):{read} aion build takes "
-            f"a map's days and hours in UTC unless told: aion build {output.name} --tz {home}"
+            f"a map's days and hours in UTC unless told: aion build {shlex.quote(output.name)} "
+            f"--tz {home}"
         )
     elif given and layout in RELATIVE_LAYOUTS:
         note(f"{layout}:{read.rstrip(';')}")

@@ -4,6 +4,7 @@ whether TRACKS is a tracks file at all (not a folder, a log, a map or a scene gr
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 #: layouts with frame numbers, and their frame rate when --fps is not given
@@ -30,7 +31,7 @@ def check_tracks_input(tracks: Path) -> None:
         if (tracks / "metadata.yaml").is_file():
             raise InputError(
                 f"{tracks} is a rosbag2 log, not a tracks file",
-                hint=f"build a map from it: aion build {tracks} -o MAP.aion",
+                hint=f"build a map from it: aion build {shlex.quote(str(tracks))} -o MAP.aion",
             )
         raise InputError(
             f"{tracks} is a folder, not a tracks file",
@@ -39,20 +40,21 @@ def check_tracks_input(tracks: Path) -> None:
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
     kind = input_kind(tracks)
+    word = shlex.quote(tracks.name)  # the name in a command to paste
     if kind == "log":
         raise InputError(
             f"{tracks.name} is a log, not a tracks file",
-            hint=f"build a map from it: aion build {tracks.name} -o MAP.aion",
+            hint=f"build a map from it: aion build {word} -o MAP.aion",
         )
     if kind == "map":
         raise InputError(
             f"{tracks.name} is an aion map, not a tracks file",
-            hint=f"query it: aion predict {tracks.name}",
+            hint=f"query it: aion predict {word}",
         )
     if kind == "graph":
         raise InputError(
             f"{tracks.name} is a scene graph, not a tracks file",
-            hint=f"publish it with the tracks: aion convert TRACKS --graph {tracks.name} -o LOG",
+            hint=f"publish it with the tracks: aion convert TRACKS --graph {word} -o LOG",
         )
 
 

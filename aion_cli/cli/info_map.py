@@ -5,6 +5,7 @@ Split from :mod:`aion_cli.cli.info` (logs and graph files); the command there ca
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +78,7 @@ def _hierarchy(path: Path) -> dict[str, Any]:
             "warnings": [
                 f"{path.name}: aion cannot read this map's state and scene graph ({exc}): "
                 f"its graph layer, rooms and buildings are not shown, and queries refuse the "
-                f"map; `aion info {path.name} --verify` checks every member"
+                f"map; `aion info {shlex.quote(path.name)} --verify` checks every member"
             ],
         }
     if graph is None:

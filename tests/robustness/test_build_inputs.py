@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
 from pathlib import Path
 
@@ -63,7 +64,8 @@ def test_an_older_log_added_to_a_newer_map_is_refused_and_not_recorded(tmp_path:
         "logs must be added to a map in time order",
     )
     assert (
-        f"hint: rebuild the map from all logs at once (aion build new.mcap {old} -o NEW.aion)"
+        f"hint: rebuild the map from all logs at once (aion build new.mcap {shlex.quote(str(old))} "
+        "-o NEW.aion)"
         in result.stderr
     )
     assert target.read_bytes() == before

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import subprocess
 import time
 from pathlib import Path
@@ -160,7 +161,7 @@ def test_a_lock_in_a_missing_folder_is_the_missing_folder_error(tmp_path: Path) 
         pass
     assert "the folder" in caught.value.message
     assert "does not exist" in caught.value.message
-    assert f"mkdir -p {target.parent}" in (caught.value.hint or "")
+    assert f"mkdir -p {shlex.quote(str(target.parent))}" in (caught.value.hint or "")
     config = ScenarioConfig(days=0.01, seed=1)
     with pytest.raises(OutputPathError, match="does not exist"):
         run_scene(config, load_environment(config), 0, target)
