@@ -4,11 +4,13 @@
 there (an SQLite reader opened with ``mode=ro`` alone left ``-wal`` / ``-shm`` files beside a
 rosbag2 bag). The run lists every file's size and modification time before the first test and
 after the last, and fails, naming the paths, when anything was added, removed or changed.
+A run that inherits SIGINT ignored takes Python's Ctrl-C handler back (:func:`pytest_configure`).
 """
 
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
@@ -40,6 +42,16 @@ def changed_paths(before: Snapshot, after: Snapshot) -> list[str]:
     """Paths added, removed or changed between two snapshots, sorted."""
     keys = set(before) | set(after)
     return sorted(k for k in keys if before.get(k) != after.get(k))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Ctrl-C raises KeyboardInterrupt, whoever started the run. A run started in the
+    background by a script (``pytest &``, some CI agents) inherits SIGINT ignored, and Python
+    leaves an ignored SIGINT ignored, in itself and in every aion it starts: the tests of what
+    a Ctrl-C does then sent one that nothing received and failed (test_interrupts,
+    test_parallel_build). A SIGINT the run catches is the default again in a child process."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:
