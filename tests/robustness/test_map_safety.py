@@ -261,9 +261,12 @@ def test_two_builds_extending_one_map_never_lose_a_log(
         env=aion_env(),
     )
     try:
-        deadline = time.monotonic() + 3  # A takes the lock first thing (its build lasts longer)
+        # A takes the lock first thing (its build lasts longer); its start-up (imports) takes
+        # longer than 3 s on a busy machine, so the wait is for the lock, not for a time
+        deadline = time.monotonic() + 120
         while not lock.exists() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.005)
+        assert lock.exists(), "build A took no lock"
         second = run("build", small, "--map", target)  # while A is still busy
         _, err = proc.communicate(timeout=120)
     finally:
