@@ -306,8 +306,14 @@ def test_a_stopped_worker_ends_quietly(
     import aion_cli.process_pool as pool
     from aion_cli.cli.main import _terminated
 
-    monkeypatch.setattr(pool, "build_shard", lambda task, sink: time.sleep(60))
     ctx = mp.get_context("fork")
+    building = ctx.Event()
+
+    def build_shard(task: object, sink: object) -> None:
+        building.set()
+        time.sleep(60)
+
+    monkeypatch.setattr(pool, "build_shard", build_shard)
     tasks, out = [SimpleNamespace(index=0)], ctx.Queue()
     previous = signal.signal(signal.SIGTERM, _terminated)
     try:
@@ -317,7 +323,9 @@ def test_a_stopped_worker_ends_quietly(
         worker.start()
     finally:
         signal.signal(signal.SIGTERM, previous)
-    time.sleep(0.3)  # the worker is building its shard
+    # the worker is building its shard (0.3 s of sleep was not always enough on a busy machine:
+    # stopped before its handler was reset, it printed the KeyboardInterrupt this test forbids)
+    assert building.wait(timeout=60), "the worker did not start its shard"
     worker.terminate()
     worker.join(timeout=10)
     err = capfd.readouterr().err
