@@ -61,3 +61,15 @@ def real_path(*parts: str) -> Path:
 def real(*parts: str) -> Path:
     """Inside a test: :func:`real_path`, skipping the test when neither copy exists."""
     return require(real_path(*parts), "/".join(parts))
+
+
+def writable_copy(source: Path, target: Path) -> Path:
+    """``target``, a copy of the folder ``source`` that a test may change. The shared data is
+    read-only by permission (folders 0555, files 0444) and ``shutil.copytree`` keeps those
+    modes: a test that then wrote into its copy passed as root and failed for anyone else."""
+    import shutil
+
+    shutil.copytree(source, target, copy_function=shutil.copyfile)
+    for path in [target, *target.rglob("*")]:
+        path.chmod(0o755 if path.is_dir() else 0o644)
+    return target

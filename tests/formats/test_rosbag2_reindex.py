@@ -21,7 +21,7 @@ from aion_cli.formats.logs import open_logs
 from aion_cli.formats.rosbag2_reindex import reindex
 from tests.cli.conftest import assert_one_line_error, run
 from tests.formats.rosbag2_reference import bag_metadata, read_only, sqlite_messages
-from tests.shared_data import SHARED_DATA, real
+from tests.shared_data import SHARED_DATA, real, writable_copy
 
 DATA = SHARED_DATA / "logs" / "rosbag2_tests"
 NO_DATA = "the rosbag2 test bags of ../shared/data/logs are not available"
@@ -184,7 +184,7 @@ def test_a_folder_of_storage_files_and_other_logs_is_refused(tmp_path: Path) -> 
     assert f"give the logs one by one ({folder}/*)" in result.stderr
     # a bag with its metadata.yaml is a bag: whatever else its folder holds stays unread
     bag = tmp_path / "bag"
-    shutil.copytree(_real("rosbag2_py_mcap_talker"), bag)
+    writable_copy(_real("rosbag2_py_mcap_talker"), bag)
     shutil.copy(real("logs", "rosbagjs_fixtures", "example.bag"), bag / "example.bag")
     with open_logs([bag]) as logs:
         assert logs.total() == 20
@@ -210,8 +210,7 @@ def test_a_compressed_ros1_bag_beside_storage_files_is_another_log(
 
 def test_unusable_metadata_yaml_falls_back_to_the_storage_files(tmp_path: Path) -> None:
     talker = _real("rosbag2_py_sqlite3_talker")
-    copy = tmp_path / "talker"
-    shutil.copytree(talker, copy)
+    copy = writable_copy(talker, tmp_path / "talker")
     (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: {version: 4}\n")
     with open_logs([copy]) as logs:
         assert logs.total() == 20
@@ -226,8 +225,7 @@ def test_a_metadata_yaml_that_is_no_yaml_is_named_on_one_line(tmp_path: Path) ->
     console printed as ``\\n`` escapes inside one warning line. The reason is now one line,
     its parts joined as an error's are."""
     talker = _real("rosbag2_py_sqlite3_talker")
-    copy = tmp_path / "talker"
-    shutil.copytree(talker, copy)
+    copy = writable_copy(talker, tmp_path / "talker")
     (copy / "metadata.yaml").write_text("rosbag2_bagfile_information: [\n")
     with open_logs([copy]) as logs:
         assert logs.total() == 20
