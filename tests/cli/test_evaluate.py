@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from aion_cli.cli.main import cli
-from tests.shared_data import SHARED_DATA, needs
+from tests.shared_data import SHARED_DATA, needs, writable_copy
 
 DATA = SHARED_DATA
 AION = Path(sys.executable).parent / "aion"
@@ -143,10 +143,7 @@ def test_damaged_door_files_are_one_line_errors(
     tmp_path: Path, name: str, text: str, fragment: str
 ) -> None:
     """Each was an internal error (or a success table of a week without samples)."""
-    import shutil
-
-    data = tmp_path / "door"
-    shutil.copytree(DATA / "fremen_door", data)
+    data = writable_copy(DATA / "fremen_door", tmp_path / "door")
     original = (data / name).read_text()
     (data / name).write_text(text.replace("KEEP\n", original))
     proc = subprocess.run(
@@ -164,10 +161,7 @@ def test_door_training_too_short_to_score_a_day_is_an_error(tmp_path: Path, rows
     """Three minutes, or the first day alone: no day is scored, every family's score is 0,
     and the table called FreMEn order 1 'the best by day-ahead score' of periods of amplitude
     0 (exit 0)."""
-    import shutil
-
-    data = tmp_path / "door"
-    shutil.copytree(DATA / "fremen_door", data)
+    data = writable_copy(DATA / "fremen_door", tmp_path / "door")
     lines = (data / "training_data.txt").read_text().splitlines(keepends=True)
     (data / "training_data.txt").write_text("".join(lines[:rows]))
     result = CliRunner().invoke(cli, ["evaluate", "door", "--data", str(data)])
