@@ -5,6 +5,9 @@ there (an SQLite reader opened with ``mode=ro`` alone left ``-wal`` / ``-shm`` f
 rosbag2 bag). The run lists every file's size and modification time before the first test and
 after the last, and fails, naming the paths, when anything was added, removed or changed.
 A run that inherits SIGINT ignored takes Python's Ctrl-C handler back (:func:`pytest_configure`).
+Property tests run without hypothesis's 200 ms deadline per example: an example that builds a
+map or decodes a log takes longer on a loaded machine, and the deadline then failed a test
+whose every example held (``tests/formats/test_recorded_windows.py``, once under load).
 """
 
 from __future__ import annotations
@@ -14,8 +17,12 @@ import signal
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from tests.shared_data import SHARED_DATA
+
+settings.register_profile("aion", deadline=None)
+settings.load_profile("aion")
 
 _SNAPSHOT = pytest.StashKey[dict[str, tuple[int, int]]]()
 
