@@ -149,6 +149,15 @@ def test_bad_worker_counts_are_refused(tmp_path: Path) -> None:
         _build(logs, tmp_path / "m.aion", -1)
 
 
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` is alive (exists and is not a zombie), from /proc."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"
+
+
 def _children(pid: int) -> list[int]:
     """Live processes whose parent is ``pid`` (from /proc)."""
     out = []
@@ -401,9 +410,12 @@ def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) ->
     assert proc.returncode == 130, err
     assert "Traceback" not in err, err  # the workers end quietly (one line from the parent)
     assert hashlib.sha256(out.read_bytes()).hexdigest() == before
-    time.sleep(0.5)
-    alive = [w for w in workers if Path(f"/proc/{w}").exists() and _children(proc.pid) != []]
-    assert alive == []
+    # the workers are gone too: the parent has exited, so an orphan would have a new parent
+    # (init or a subreaper) and be looked up by its own pid
+    deadline = time.monotonic() + 10
+    while [w for w in workers if _running(w)] and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert [w for w in workers if _running(w)] == []
     assert not list(tmp_path.glob("*.tmp*"))
 
 
