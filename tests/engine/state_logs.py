@@ -97,3 +97,32 @@ def assert_same_state(a: MapState, b: MapState, rtol: float = 1e-12) -> None:
     """Equal maps: metadata and integer members exactly, float members to ``rtol``."""
     problems = differences(a, b, rtol)
     assert not problems, "\n".join(problems)
+
+
+def fold_in_earlier_map(
+    make_maps: Callable[[], list[MapState]], exact: tuple[str, ...]
+) -> MapState:
+    """``aion merge``'s fold of the maps ``make_maps()`` gives, built in place (``consume``),
+    checked against the pairwise fold of copies (each step built in the later map): the
+    result is the first map's own storage, the same state, consistent, and the same to the
+    bit in the ``exact`` members (sums of one value per map, or min/max). Returns the fold."""
+    from aion_cli.engine.compare import pending_sorted, plain
+    from aion_cli.engine.merge import merge_maps
+    from tests.engine.engine_builders import check_invariants
+
+    def fold(maps: list[MapState], consume: bool) -> MapState:
+        acc = maps[0]
+        for state in maps[1:]:
+            acc = merge_maps(acc, state, consume=consume)
+        return acc
+
+    pairwise = fold(make_maps(), consume=False)  # copies: always built in the later map
+    maps = make_maps()
+    built = fold(maps, consume=True)
+    assert built is maps[0]  # before: every step was built in the later map, copying the fold
+    assert_same_state(pairwise, built)
+    check_invariants(built)
+    a, b = (pending_sorted(plain(s.to_arrays()[0])) for s in (pairwise, built))
+    for name in exact:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    return built

@@ -9,13 +9,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aion_cli.engine.compare import pending_sorted, plain
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.rebind import release_all
 from aion_cli.engine.state import MapState
-from tests.engine.engine_builders import T0, S, check_invariants, detections
-from tests.engine.state_logs import CFG, DAY, W, assert_same_state, fixed_sensor_log, run_steps
+from tests.engine.engine_builders import T0, S, detections
+from tests.engine.state_logs import (
+    CFG,
+    DAY,
+    W,
+    assert_same_state,
+    fixed_sensor_log,
+    fold_in_earlier_map,
+    run_steps,
+)
 
 HOUR = 3600 * S
 #: members that are sums of one value per map (or min/max), the same to the bit
@@ -71,26 +78,9 @@ def _maps(kind: str) -> list[MapState]:
     return [_fixed_map(k, kind == "shared", w) for k, w in enumerate(WINDOWS[kind])]
 
 
-def _fold(maps: list[MapState], consume: bool) -> MapState:
-    acc = maps[0]
-    for state in maps[1:]:
-        acc = merge_maps(acc, state, consume=consume)
-    return acc
-
-
 @pytest.mark.parametrize("kind", ["disjoint", "shared", "released"])
 def test_the_fold_in_the_earlier_map_is_the_pairwise_fold(kind: str) -> None:
-    pairwise = _fold(_maps(kind), consume=False)  # copies: always built in the later map
-    maps = _maps(kind)
-    first = maps[0]
-    fold = _fold(maps, consume=True)
-    # before: every step was built in the later map, copying the result so far
-    assert fold is first
-    assert_same_state(pairwise, fold)
-    check_invariants(fold)
-    a, b = (pending_sorted(plain(s.to_arrays()[0])) for s in (pairwise, fold))
-    for name in _EXACT:
-        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    fold = fold_in_earlier_map(lambda: _maps(kind), _EXACT)
     # what each map saw adds up: every entry observed over every map's fixed windows but
     # the last map's last (still open), every detection counted once
     rows = fold.entries.live_rows()
@@ -102,7 +92,7 @@ def test_the_fold_in_the_earlier_map_is_the_pairwise_fold(kind: str) -> None:
     fold.rebuild_routes()
     np.testing.assert_array_equal(kept.keys, fold.routes.keys)
     np.testing.assert_array_equal(kept.rows, fold.routes.rows)
-    assert fold.open_window == maps[-1].open_window
+    assert fold.open_window == _maps(kind)[-1].open_window
 
 
 def test_maps_with_nodes_merge_in_the_earlier_map_by_rows() -> None:

@@ -12,14 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aion_cli.engine.compare import pending_sorted, plain
 from aion_cli.engine.entries import NODE
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.merge_rows import touched_rows
 from aion_cli.engine.state import MapState
-from tests.engine.engine_builders import T0, S, check_invariants, detections, graph
-from tests.engine.state_logs import CFG, DAY, W, assert_same_state
+from tests.engine.engine_builders import T0, S, detections, graph
+from tests.engine.state_logs import CFG, DAY, W, fold_in_earlier_map
 
 HOUR = 3600 * S
 #: the places of an area (ids 5k .. 5k + 4 in area k)
@@ -89,26 +87,9 @@ def _maps(kind: str) -> list[MapState]:
     return [_map(k, kind, w) for k, w in enumerate(WINDOWS)]
 
 
-def _fold(maps: list[MapState], consume: bool) -> MapState:
-    acc = maps[0]
-    for state in maps[1:]:
-        acc = merge_maps(acc, state, consume=consume)
-    return acc
-
-
 @pytest.mark.parametrize("kind", ["areas", "session"])
 def test_the_fold_in_the_earlier_map_is_the_pairwise_fold(kind: str) -> None:
-    pairwise = _fold(_maps(kind), consume=False)  # copies: always built in the later map
-    maps = _maps(kind)
-    first = maps[0]
-    fold = _fold(maps, consume=True)
-    # before: every step was built in the later map, copying the result so far
-    assert fold is first
-    assert_same_state(pairwise, fold)
-    check_invariants(fold)
-    a, b = (pending_sorted(plain(s.to_arrays()[0])) for s in (pairwise, fold))
-    for name in _EXACT:
-        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+    fold = fold_in_earlier_map(lambda: _maps(kind), _EXACT)
     # every detection counted once, every entry observed over every map's fixed windows
     # but the last map's last (still open)
     inputs = _maps(kind)
@@ -121,7 +102,7 @@ def test_the_fold_in_the_earlier_map_is_the_pairwise_fold(kind: str) -> None:
     nodes = fold.entries.node_id[fold.entries.node_rows()]
     assert fold.graph is not None
     assert set(nodes.tolist()) <= set(fold.graph.places.ids.tolist())
-    np.testing.assert_array_equal(fold.nodes.ids, maps[-1].nodes.ids)
+    np.testing.assert_array_equal(fold.nodes.ids, inputs[-1].nodes.ids)
     assert fold.open_window == inputs[-1].open_window
 
 
