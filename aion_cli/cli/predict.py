@@ -68,6 +68,10 @@ one it repeats is its first occurrence.
 TABLE_LIMIT = 100
 """Rows a terminal table shows without --top (JSON and CSV always have every entry)."""
 
+EXTRAPOLATED = "(extrapolated: an hour no log observed)"
+"""The table title's mark of a time whose hour no day of the map observed (JSON
+``hour_observed`` false): every row's forecast is extrapolated (the note says how)."""
+
 
 @click.command(
     "predict",
@@ -166,9 +170,9 @@ def command(
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone, loaded=loaded, text=time_text)
     say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
+    (seen,) = hour_flags(loaded, [t_ns])
     if fmt in ("json", "csv"):
-        _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone,
-                                          hour_flags(loaded, [t_ns])[0]))
+        _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone, seen))
         return
     rows = entries.records()
     title = (
@@ -176,6 +180,8 @@ def command(
         if t_ns is None or zone is None
         else (f"predicted flows at {format_ns(t_ns, zone)}")
     )
+    if seen is False:  # as a series marks such a row: stdout kept in a file keeps the word
+        title += f" {EXTRAPOLATED}"
     if top is None and count > TABLE_LIMIT:
         from aion_cli.cli.console import note
 

@@ -6,6 +6,7 @@ hand, and the output must say which rows are extrapolated and what their number 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -88,3 +89,33 @@ def test_the_table_marks_extrapolated_rows_and_says_what_they_are(office_hours: 
     ) in note
     single = run("predict", office_hours, "--time", "2026-11-09 08:00", "--tz", "UTC")
     assert "not measured: every entry at its static rate" in " ".join(single.stderr.split())
+
+
+def test_a_single_time_table_says_its_hour_is_extrapolated(office_hours: Path) -> None:
+    """Before: ``predict --time 08:00`` titled its table "predicted flows at ..." as at 10:00;
+    only the stderr note flagged the hour, and stdout kept in a file lost it. Now the title
+    says it (as a series marks the row), for every form of the table; not at an observed hour,
+    nor with --historical (what was observed has no hour)."""
+    one = ("--tz", "UTC")
+    for extra in ((), ("--top", "1"), ("--at", "0.3,0.3"), ("--node", "c4611688217451692032")):
+        out = run("predict", office_hours, "--time", "2026-11-09 08:00", *one, *extra)
+        assert out.exit_code == 0, out.stderr
+        assert "(extrapolated: an hour no log observed)" in " ".join(out.stdout.split()), extra
+    observed = run("predict", office_hours, "--time", "2026-11-09 10:00", *one)
+    assert observed.exit_code == 0
+    assert "extrapolated" not in observed.stdout
+    assert "extrapolated" not in run("predict", office_hours, "--historical").stdout
+
+
+@pytest.mark.parametrize("layer", ["rooms", "buildings", "places"])
+def test_rooms_and_buildings_say_it_too(office: Any, layer: str) -> None:
+    """The office log observed 08:00-08:20 (UTC) only: rooms and buildings, sums of their
+    places' extrapolated forecasts at 07:00, say so in the title and the JSON."""
+    at = ("--time", "2026-11-30 07:00", "--tz", "UTC", "--layer", layer)
+    out = run("predict", office.map, *at)
+    assert out.exit_code == 0, out.stderr
+    assert "(extrapolated: an hour no log observed)" in " ".join(out.stdout.split())
+    assert run_json("predict", office.map, *at, "--format", "json")["hour_observed"] is False
+    seen = ("--time", "2026-11-30 08:10", "--tz", "UTC", "--layer", layer)
+    assert "extrapolated" not in run("predict", office.map, *seen).stdout
+    assert run_json("predict", office.map, *seen, "--format", "json")["hour_observed"] is True
