@@ -307,6 +307,7 @@ class Map(Generic[Report]):
         from dataclasses import replace
 
         from aion_cli.mapquery import nav_graph
+        from aion_cli.predictions import hour_flags
         from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
         start, goal = check.endpoint(start, "start"), check.endpoint(goal, "goal")
@@ -329,12 +330,11 @@ class Map(Generic[Report]):
         snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
         if leave is None:
             routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
-            notes = tuple(self._notes(time, zone, t_ns))
-            return replace(Plan.from_routes(routes, zone, snapped), notes=notes)
+            made = Plan.from_routes(routes, zone, snapped, hour_flags(self._loaded, [t_ns])[0])
+            return replace(made, notes=tuple(self._notes(time, zone, t_ns, None, "departures")))
 
         from aion_cli.api_results import departure_rows
         from aion_cli.prediction_series import series_times
-        from aion_cli.predictions import hour_flags
         from aion_cli.time_steps import parse_step
 
         every = parse_step(check.step("10m" if step is None else step), "step")
@@ -353,7 +353,7 @@ class Map(Generic[Report]):
         plans, best = plan_departures(
             self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
         )
-        made = Plan.from_routes(plans[best], zone, snapped)
+        made = Plan.from_routes(plans[best], zone, snapped, observed[best])
         notes = tuple(self._notes(None, zone, times[best], times, "departures"))
         return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
 

@@ -119,6 +119,9 @@ class Plan:
     # what the forecast at the departure (or the departures) cannot say, as aion plan notes it
     # (a tuple, as a Table's and a series' notes)
     notes: tuple[str, ...] = ()
+    # whether any day of the map's data observed the departure's hour (where not, the costs
+    # come from extrapolated flows); None for a map that does not list its observed hours
+    hour_observed: bool | None = None
 
     @property
     def distance_only(self) -> Plan:
@@ -140,10 +143,15 @@ class Plan:
 
     @classmethod
     def from_routes(
-        cls, routes: Routes, zone: Zone, snapped: Sequence[dict[str, Any]] = ()
+        cls,
+        routes: Routes,
+        zone: Zone,
+        snapped: Sequence[dict[str, Any]] = (),
+        hour_observed: bool | None = None,
     ) -> Plan:
         """The plan of :func:`aion_cli.routes.plan_routes`' two routes, times shown in
-        ``zone`` (``aion plan`` prints its :meth:`to_dict`)."""
+        ``zone`` (``aion plan`` prints its :meth:`to_dict`); ``hour_observed``: the
+        departure's (``predictions.hour_flags``)."""
         from aion_cli.engine.node_ids import node_label
         from aion_cli.timeparse import format_ns
 
@@ -167,6 +175,7 @@ class Plan:
                 other,
                 [dict(x) for x in snapped],
                 arrival_ns=[int(t) for t in route.arrival_ns],
+                hour_observed=hour_observed,
             )
 
         return of(routes.temporal, of(routes.distance_only, None))
@@ -195,7 +204,9 @@ class Plan:
             "temporal": part(self),
             "distance_only": part(other),
             "snapped": [dict(s, point=list(s["point"])) for s in self.snapped],
-        } | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
+        } | (
+            {} if self.hour_observed is None else {"hour_observed": self.hour_observed}
+        ) | ({"departures": [dict(d) for d in self.departures]} if self.departures else {})
 
 
 def _path_summary(plan: Plan) -> str:

@@ -51,9 +51,14 @@ FAR_AFTER_NS = 7 * DAY_NS
 week is one turn of the longest rhythm the default model learns."""
 
 
-def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
+PLAN_COSTS = "; the plan's costs come from these extrapolated flows"
+"""The end of that note for a plan departing at such an hour (its costs are those flows')."""
+
+
+def forecast_notes(manifest: Manifest, t_ns: int, noun: str = "times") -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
-    when there is nothing to say."""
+    when there is nothing to say. ``noun`` "departures": a plan's, whose costs are said to
+    come from the flows of an hour no log observed."""
     notes = []
     static = all_static(manifest)
     if static is not None:
@@ -76,7 +81,7 @@ def forecast_notes(manifest: Manifest, t_ns: int) -> list[str]:
         notes.append(silent)
     unobserved = _unobserved_hour(manifest, int(t_ns))
     if unobserved is not None:
-        notes.append(unobserved)
+        notes.append(unobserved + (PLAN_COSTS if noun == "departures" else ""))
     return notes
 
 
@@ -98,7 +103,7 @@ def query_notes(
     notes = [] if changed is None else [changed]
     if series:
         return notes + series_notes(manifest, series, t_ns, noun)
-    return notes + forecast_notes(manifest, t_ns)
+    return notes + forecast_notes(manifest, t_ns, noun)
 
 
 def all_static(manifest: Manifest) -> str | None:

@@ -187,7 +187,7 @@ def announce_time(
         lines = (
             series_notes(manifest, series, t_ns, noun)
             if series
-            else forecast_notes(manifest, t_ns)
+            else forecast_notes(manifest, t_ns, noun)
         )
         for line in lines:
             note(line)

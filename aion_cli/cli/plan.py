@@ -21,6 +21,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand, format_option, to_json
+from aion_cli.cli.predict import EXTRAPOLATED
 
 EPILOG = """\b
 Examples:
@@ -46,7 +47,9 @@ snapped[{option, room or building and name (a room or building asked for), reach
 (true where the place nearest its centre was not joined to the other end), point, node,
 distance_m}] (a start or goal given as a point, room or building) (and export / png: the
 files written; with --leave, departures[{depart, depart_ns, cost, length_m, duration_s,
-distance_only_cost, best, hour_observed (a map that lists its observed hours)}]).
+distance_only_cost, best, hour_observed}]); hour_observed (a map that lists its observed
+hours: whether any day observed the (best) departure's hour; where not, the costs come from
+extrapolated flows).
 
 \b
 --png draws the map from above at the departure (place edges, rooms, arrows along the
@@ -172,6 +175,7 @@ def command(
         t_ns, _ = resolve_time(time_text, tz, loaded)
         routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)
         departures = None
+        (seen,) = hour_flags(loaded, [t_ns])
     else:
         with progress(quiet=len(leaving) == 1) as bar:
             task = bar.add_task("planning", total=len(leaving), unit="departures")
@@ -180,10 +184,10 @@ def command(
                 loaded, a.node_id, b.node_id, leaving, speed, nav,
                 lambda done: bar.update(task, completed=done), observed,
             )
-        routes, t_ns = plans[best], leaving[best]
+        routes, t_ns, seen = plans[best], leaving[best], observed[best]
         departures = departure_rows(plans, best, zone, observed)
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
-    report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped).to_dict()}
+    report = {"map": str(map_path), **Plan.from_routes(routes, zone, snapped, seen).to_dict()}
     if departures is not None:
         report["departures"] = departures
     temporal = routes.temporal
@@ -242,7 +246,9 @@ def _print(report: dict[str, Any]) -> None:
         note(snapped_text(snap))
     ends = _end_labels(report)
     title = f"{ends[0]} -> {ends[1]}, departing {report['depart']}"
-    table = Table(title=Text(printable(title)))
+    if report.get("hour_observed") is False:  # stdout kept in a file keeps the word
+        title += f" {EXTRAPOLATED}"
+    table = Table(title=Text(printable(title)), min_width=len(title))  # the title kept whole
     table.add_column("plan", style="bold", no_wrap=True)
     table.add_column("length", justify="right", no_wrap=True)
     table.add_column("time", justify="right", no_wrap=True)

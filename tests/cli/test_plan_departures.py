@@ -94,6 +94,37 @@ def test_departures_at_hours_no_log_observed_are_marked(office: Office) -> None:
     ) in " ".join(table.stderr.split())
 
 
+def test_a_plan_at_an_hour_no_log_observed_says_its_costs_are_extrapolated(
+    office: Office,
+) -> None:
+    """Before: ``plan --time 07:00`` on the office map (observed 08:00-08:20 UTC) printed its
+    table as at 08:05, its JSON had no hour_observed, and only predict's note ("the forecast at
+    this hour is extrapolated") hinted that the costs were. Now the title, the JSON and a note
+    say it; the best departure of --leave likewise; not at an observed hour."""
+    at = ("--from", "p0", "--to", "p3", "--tz", "UTC")
+    early = run("plan", office.map, *at, "--time", "2026-11-30 07:00")
+    assert early.exit_code == 0, early.stderr
+    assert "departing 2026-11-30 07:00:00+00:00 (extrapolated: an hour no log observed)" in (
+        " ".join(early.stdout.split()))
+    said = " ".join(early.stderr.split())
+    assert "not measured: every entry at its static rate" in said
+    assert "quiet ones); the plan's costs come from these extrapolated flows" in said
+    assert _plan(office.map, "--time", "2026-11-30 07:00", ends=("p0", "p3"))[
+        "hour_observed"] is False
+    seen = run("plan", office.map, *at, "--time", "2026-11-30 08:05")
+    assert "extrapolated" not in seen.stdout + seen.stderr
+    assert _plan(office.map, "--time", "2026-11-30 08:05", ends=("p0", "p3"))["hour_observed"]
+    leave = ("--leave", "2026-11-30 07:00..2026-11-30 07:30", "--step", "30m")
+    doc = _plan(office.map, *leave, ends=("p0", "p3"))
+    assert doc["hour_observed"] is False  # the best of two departures at 07:xx
+    assert [r["hour_observed"] for r in doc["departures"]] == [False, False]
+    import aion_cli as aion
+
+    api = aion.Map.load(office.map).plan("p0", "p3", time="2026-11-30 07:00", tz="UTC")
+    assert api.hour_observed is False
+    assert api.to_dict()["hour_observed"] is False
+
+
 @pytest.mark.parametrize(
     ("extra", "fragment"),
     [
