@@ -100,6 +100,10 @@ def series_json(table: SeriesTable) -> Iterator[str]:
     return rt.json_document(doc, "entries", entries)
 
 
+PER_TIME = ("time", "time_ns", "hour_observed")
+"""The series CSV's columns of a time (the rest are an entry's, or its flow then)."""
+
+
 def series_csv(table: SeriesTable, labels: Sequence[str], keys: Sequence[str]) -> Iterator[str]:
     """``to_csv(table.long_rows(labels), keys)``: one row per (time, entry), times outermost;
     each entry's cells are made once, its flows one block of rows at a time."""
@@ -109,6 +113,7 @@ def series_csv(table: SeriesTable, labels: Sequence[str], keys: Sequence[str]) -
     cells = {key: _csv_cells(static, key, every) for key in SERIES_STATIC}
     cells["time"] = rt.csv_strings(np.asarray(list(labels), dtype=object))
     cells["time_ns"] = rt.csv_ints(np.asarray(table.times_ns, dtype=np.int64))
+    cells["hour_observed"] = rt.csv_strings(np.asarray(table.observed_text(), dtype=object))
     yield rt.csv_header(keys, {})  # no list fields: one column per key
 
     def block(a: int, b: int) -> list[Any]:
@@ -120,7 +125,7 @@ def series_csv(table: SeriesTable, labels: Sequence[str], keys: Sequence[str]) -
                 values = table.flow if key == "flow" else table.flow_per_hour
                 out.append(rt.csv_floats(values[k, j]))
             else:
-                out.append(cells[key][j if key in ("time", "time_ns") else k])
+                out.append(cells[key][j if key in PER_TIME else k])
         return out
 
     yield from rt.csv_rows(entries * times, block, _block(len(keys)))

@@ -38,7 +38,8 @@ BLOCK_VALUES = 1 << 22
 
 #: CSV columns of a series: one row per (time, entry)
 SERIES_CSV_KEYS = [
-    "time", "time_ns", "id", "name", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour"
+    "time", "time_ns", "id", "name", "kind", "layer", "x", "y", "z", "flow", "flow_per_hour",
+    "hour_observed",
 ]
 
 
@@ -126,17 +127,29 @@ class SeriesTable:
 
     def long_rows(self, labels: Sequence[str]) -> list[dict[str, Any]]:
         """One row per (time, entry), times outermost: ``--format csv`` (``labels``: each
-        time as text)."""
+        time as text; ``hour_observed`` as JSON writes it, ``true`` / ``false``, None where
+        not known)."""
+        seen = self.observed_text()
         return [
             {"time": labels[j], "time_ns": t}
             | entry
             | {
                 "flow": _value(self.flow[k, j]),
                 "flow_per_hour": _value(self.flow_per_hour[k, j]),
+                "hour_observed": seen[j],
             }
             for j, t in enumerate(self.times_ns)
             for k, entry in enumerate(self.entries)
         ]
+
+
+    def observed_text(self) -> list[str | None]:
+        """Per time, ``hour_observed`` as CSV text (``true`` / ``false``, as in the JSON);
+        None for every time where the map does not list the hours it observed."""
+        flags = self.hour_observed
+        if flags is None or None in flags:
+            return [None] * len(self.times_ns)
+        return ["true" if seen else "false" for seen in flags]
 
 
 def _value(x: float) -> float | None:

@@ -58,7 +58,8 @@ busiest over the series); JSON (map, mode: series, zone, times, times_ns, hour_o
 per time, entries) lists each entry (id, name, kind, layer, x, y, z) with its
 flow and flow_per_hour per time,
 CSV has one row per time and entry (time, time_ns, id, name, kind, layer, x, y, z,
-flow, flow_per_hour). Each value equals `predict --time` at that time. The series includes --to
+flow, flow_per_hour, hour_observed: true / false as in the JSON, empty for a map that lists
+no hours). Each value equals `predict --time` at that time. The series includes --to
 when it falls on a step. A step of days or weeks (1d, 1w) keeps the wall-clock time in the
 zone across a daylight-saving change; 24h is 24 elapsed hours. A day's time the change skips
 (02:30 on the spring change) is read as --time reads it: as late as the clocks jump (03:30);

@@ -90,13 +90,12 @@ def run_series(
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times, text=t_from)
     say_nearest(at, table.entries[0] if table.entries else None)
-    if fmt == "json":  # the text of to_json(described(...).to_dict()), from arrays
-        emit_chunks(
-            series_json(described(table, map_path, zone, labels, hour_flags(loaded, times))),
-            nl=True,
-        )
-    elif fmt == "csv":  # to_csv(table.long_rows(labels), SERIES_CSV_KEYS), likewise
-        emit_chunks(series_csv(table, labels, SERIES_CSV_KEYS), nl=False)
+    if fmt in ("json", "csv"):  # to_json(.to_dict()) / to_csv(.long_rows(labels), KEYS) text
+        full = described(table, map_path, zone, labels, hour_flags(loaded, times))
+        if fmt == "json":
+            emit_chunks(series_json(full), nl=True)
+        else:
+            emit_chunks(series_csv(full, labels, SERIES_CSV_KEYS), nl=False)
     else:
         shown = len(table.entries) if top is not None else min(TABLE_COLUMNS, len(table.entries))
         if top is None and shown < table.matched:

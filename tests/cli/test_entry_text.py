@@ -210,16 +210,15 @@ def test_series_cli(sample_map: Path) -> None:
     args = ("--from", "2026-11-23 06:00", "--to", "2026-11-23 09:00", "--tz", "UTC")
     times = [parse_time("2026-11-23 06:00", zone) + k * 3_600 * 10**9 for k in range(4)]
     table = predict_series(loaded, times, "rooms")
+    from aion_cli.predictions import hour_flags
     from aion_cli.timeparse import format_ns
 
     labels = [format_ns(t, zone) for t in times]
+    full = described(table, sample_map, zone, labels, hour_flags(loaded, times))
     csv = run("predict", sample_map, *args, "--layer", "rooms", "--format", "csv")
-    assert csv.stdout == to_csv(table.long_rows(labels), SERIES_CSV_KEYS)
+    assert csv.stdout == to_csv(full.long_rows(labels), SERIES_CSV_KEYS)
     js = run("predict", sample_map, *args, "--layer", "rooms", "--format", "json")
-    from aion_cli.predictions import hour_flags
-
-    doc = described(table, sample_map, zone, labels, hour_flags(loaded, times)).to_dict()
-    assert js.stdout == to_json(doc) + "\n"
+    assert js.stdout == to_json(full.to_dict()) + "\n"
 
 
 @pytest.mark.parametrize(

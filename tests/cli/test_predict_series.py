@@ -79,7 +79,7 @@ def test_csv_and_table_forms(rhythm: Path) -> None:
     csv = run(*args, "--top", "3", "--format", "csv")
     assert csv.exit_code == 0, csv.stderr
     lines = csv.stdout.strip().splitlines()
-    assert lines[0] == "time,time_ns,id,name,kind,layer,x,y,z,flow,flow_per_hour"
+    assert lines[0] == "time,time_ns,id,name,kind,layer,x,y,z,flow,flow_per_hour,hour_observed"
     assert len(lines) == 1 + 4 * 3  # 06:00 .. 09:00 hourly, three entries each
     table = run(*args, "--top", "3")
     assert table.exit_code == 0, table.stderr

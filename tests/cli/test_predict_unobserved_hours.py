@@ -119,3 +119,23 @@ def test_rooms_and_buildings_say_it_too(office: Any, layer: str) -> None:
     seen = ("--time", "2026-11-30 08:10", "--tz", "UTC", "--layer", layer)
     assert "extrapolated" not in run("predict", office.map, *seen).stdout
     assert run_json("predict", office.map, *seen, "--format", "json")["hour_observed"] is True
+
+
+def test_a_series_csv_says_which_rows_are_extrapolated(office_hours: Path) -> None:
+    """Before: the series CSV (one row per time and entry) had no hour_observed, so 9.25 at
+    08:00 read as measured beside 2.0 at 10:00 once stdout was a file; the JSON had the flags.
+    Now each row carries its time's flag, the JSON's (lowercase, as JSON writes it)."""
+    import csv
+    import io
+
+    out = run("predict", office_hours, *SERIES, "--format", "csv")
+    assert out.exit_code == 0, out.stderr
+    rows = list(csv.DictReader(io.StringIO(out.stdout)))
+    doc = run_json("predict", office_hours, *SERIES, "--format", "json")
+    assert [r["time"] for r in rows] == doc["times"]  # one entry: a row per time
+    assert [r["hour_observed"] for r in rows] == [
+        "true" if seen else "false" for seen in doc["hour_observed"]
+    ]
+    flags = {r["time"][11:16]: r["hour_observed"] for r in rows}
+    assert (flags["08:00"], flags["09:00"], flags["16:00"], flags["17:00"]) == (
+        "false", "true", "true", "false")
