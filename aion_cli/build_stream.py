@@ -174,6 +174,7 @@ class StreamStep:
             self._times.filter(logset.messages(topics, self.time_part, unread)),
             graph_topics,
             self.progress,
+            logset,
         )
         stream = chunks(messages, graph_topics, self.opts.batch_size)
         # a linked track's first rows wait in the hold for its first displacement; rows

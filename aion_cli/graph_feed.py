@@ -125,6 +125,7 @@ class GraphFeed:
         self.period_ns = period_ns
         self.skip_identical = skip_identical
         self.used: npt.NDArray[np.bool_] | None = None  # graph_schedule (None: all)
+        self.window_ns = 0  # the schedule's window (a partial's stand-in stays in it)
         # log times at which the schedule uses no graph: the reader may leave those unread
         self.unread_times: I64 = np.zeros(0, np.int64)
         self._nav_pin: str | None = None  # the layer key the log's first graph chose
@@ -171,6 +172,7 @@ class GraphFeed:
             t, used = t[part], used[part]
             self.agents_since(lo)
         self.used = used
+        self.window_ns = window_ns
         self.unread_times = np.setdiff1d(t[~used], t[used])
 
     def unread_hint(self, graph_topics: set[str]) -> UnreadHint | None:
@@ -191,33 +193,29 @@ class GraphFeed:
         self._agents_until = max(self._agents_until, int(t_ns) - 1)
 
     def thin(
-        self, messages: Iterator[RawMessage], graph_topics: set[str], progress: ProgressSink
+        self,
+        messages: Iterator[RawMessage],
+        graph_topics: set[str],
+        progress: ProgressSink,
+        logset: Any = None,
     ) -> Iterator[RawMessage]:
-        """The stream without the scene graphs :func:`graph_schedule` leaves out
-        (``--graph-period``; counted, the progress bar still advances). They go before the
-        detection chunks are cut, so a skipped graph neither cuts the Mapper's feed into
-        smaller pieces nor is decoded. Every message passes when every graph is used."""
-        used = self.used
-        if used is None or bool(used.all()):
-            yield from messages
-            return
-        from aion_cli.formats.raw import Unread
+        """The stream without the scene graphs the schedule leaves out
+        (:func:`aion_cli.graph_thin.thin_graphs`; with ``logset`` a used partial update's
+        period gets the next whole graph of its window)."""
+        from aion_cli.graph_thin import thin_graphs
 
-        flags = used.tolist()
-        k = 0
-        for msg in messages:
-            if msg.topic in graph_topics:
-                keep = k >= len(flags) or flags[k]
-                k += 1
-                if not keep:
-                    self.report.graphs_skipped_period += 1
-                    progress.advance(1)
-                    continue
-                if isinstance(msg.data, Unread):  # unread_hint named only graphs left out
-                    raise RuntimeError(
-                        f"a scene graph at {msg.log_time_ns} ns was left unread but is used"
-                    )
-            yield msg
+        return thin_graphs(self, messages, graph_topics, progress, logset)
+
+    def is_whole(self, logset: Any, msg: RawMessage) -> bool:
+        """Whether the stream applies ``msg`` as a whole graph: not a partial update
+        (:meth:`payload`); a message that cannot be read answers True (the stream counts it)."""
+        try:
+            self.payload(logset, msg)
+        except PartialGraphError:
+            return False
+        except Exception:
+            return True
+        return True
 
     def has_agents(self, logset: Any, messages: Iterable[RawMessage]) -> bool:
         """Whether the first of the scene graphs ``messages`` that decodes carries robot

@@ -56,7 +56,8 @@ def graph_period_option(func: F) -> F:
         metavar="DURATION",
         callback=_period,
         help="Use about one scene graph per DURATION of log time (5s, 1m, 500ms; 0: every "
-        "graph): the newest graph of each period, the last of each window and of the log; "
+        "graph): the newest graph of each period, the last of each window and of the log "
+        "(one that is a partial update gives way to the next whole graph of its window); "
         "a payload identical to the last one is never decoded again "
         f"[default: {GRAPH_PERIOD_DEFAULT_TEXT}].",
     )(func)

@@ -187,3 +187,32 @@ def test_partial_scene_graph_updates_are_skipped(tmp_path: Path, container: str)
     report = run_json("build", unset, "-o", tmp_path / "unset.aion", *args)
     assert report["nodes"] == len(partial)
     assert not any("partial scene-graph" in n for n in report["notes"]), report["notes"]
+
+
+def test_partial_update_chosen_for_its_period_gives_way_to_a_whole_graph(tmp_path: Path) -> None:
+    """--graph-period decides on log times alone, so it may choose a partial update (which
+    the stream skips) for a period whose whole graph it passed over: the period was left
+    without a graph. The office log has whole graphs at every minute (t % 60 == 0, 20 of
+    them) and partial updates at t % 60 == 30; with 45 s periods (600-s windows) the schedule
+    uses 0, 30P, 90P, 120, 180, 210P, 270P, 300, ... — 13 whole graphs, and the whole graphs
+    at 60, 240, 420, 780, 960 and 1140 s are passed over for the partials at 30, 210, 390,
+    750, 930 and 1110 s. Now the next whole graph of a used partial's window stands in for it:
+    19 applied (600 s opens another window than 570 s's partial; 1170 s's has none after it).
+    One pass and two workers choose alike and write the same map."""
+    from aion_cli.formats.mapfile import read_map
+
+    log = tmp_path / "partial.mcap"
+    write_office_log(log, "mcap", partial_places={k: PLACES[k] for k in (0, 1)})
+    maps = []
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}.aion"
+        report = run_json(
+            "build", log, "-o", out, "--graph-period", "45s", "--workers", workers,
+            "--format", "json",
+        )
+        assert report["graph"]["messages"] == 19, (workers, report["graph"])
+        assert report["nodes"] == len(PLACES)
+        maps.append(read_map(out)[0])
+    assert sorted(maps[0]) == sorted(maps[1])
+    for name in maps[0]:
+        np.testing.assert_array_equal(maps[0][name], maps[1][name], err_msg=name)
