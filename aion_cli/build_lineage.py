@@ -20,8 +20,9 @@ releases MAP's node entries before the stream (:func:`release_for_logs`).
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from aion_cli.errors import InputError
 from aion_cli.merge_lineage import check_lineage
@@ -33,6 +34,8 @@ if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.formats.raw import RawMessage
     from aion_cli.mapquery import LoadedMap
+
+T = TypeVar("T")
 
 def continue_on_graph(
     loaded: LoadedMap,
@@ -134,17 +137,44 @@ def first_applied_graph(
     peek: Callable[[RawMessage], GraphSnapshot | None],
 ) -> GraphSnapshot | None:
     """The first scene graph on ``topics`` that one pass over ``logs`` (open as ``logset``)
-    applies, decoded by ``peek`` (None: it does not decode): the first message the time rules
-    keep (:mod:`aion_cli.log_times`: a stray log time, a day from the topic's others, or one
-    out of range is dropped; its topic's times read from the indexes, else from the messages,
-    in a set of logs of their own, which vouches for nothing the caller reads) that decodes
-    (a damaged one is skipped, :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`). The
-    first graph to come (``--graph-period`` always uses it). None when none is left."""
+    applies, decoded by ``peek`` (None: it does not decode): :func:`first_used_graph`'s."""
+    found = first_used_graph(logs, log_format, logset, topics, peek)
+    return None if found is None else found.value
+
+
+@dataclass(frozen=True)
+class FirstUsed(Generic[T]):
+    """The first graph message a build uses (``msg``), what ``peek`` read of it (``value``)
+    and how many graph messages came before it in the stream, left out (``passed``: stray or
+    out-of-range log times, damaged messages, partial updates)."""
+
+    msg: RawMessage
+    value: T
+    passed: int
+
+
+def first_used_graph(
+    logs: list[Path] | tuple[Path, ...],
+    log_format: str | None,
+    logset: Any,
+    topics: set[str],
+    peek: Callable[[RawMessage], T | None],
+) -> FirstUsed[T] | None:
+    """The first scene-graph message on ``topics`` that one pass over ``logs`` (open as
+    ``logset``) uses, with what ``peek`` read of it: the first message the time rules keep
+    (:mod:`aion_cli.log_times`: a stray log time, a day from the topic's others, or one out
+    of range is dropped; its topic's times read from the indexes, else from the messages, in
+    a set of logs of their own, which vouches for nothing the caller reads) that ``peek``
+    reads (None: a damaged message or a partial update, which the stream skips,
+    :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`). The first graph to come
+    (``--graph-period`` always uses it). None when none is left. The one notion of "the first
+    graph the build uses" of the lineage check, ``aion info`` and the parallel build's
+    grouping (:mod:`aion_cli.shard_graphs`)."""
     from aion_cli.formats.logs import open_logs
     from aion_cli.log_times import TopicTimes
 
     times = TopicTimes(topics)
-    with open_logs(logs, log_format) as own:
+    with open_logs(list(logs), log_format) as own:
         indexed = own.index_times(topics)
         if indexed is not None:
             times.add_stream(indexed)
@@ -152,5 +182,15 @@ def first_applied_graph(
             for msg in own.messages(topics):
                 times.add(msg.topic, msg.log_time_ns)
         recordings = list(own.recording_times().values())
-    kept = times.check(topics, recordings).filter(logset.messages(topics))
-    return next((s for s in map(peek, kept) if s is not None), None)
+    seen = [0]
+
+    def counted(messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
+        for msg in messages:
+            seen[0] += 1
+            yield msg
+
+    for msg in times.check(topics, recordings).filter(counted(logset.messages(topics))):
+        value = peek(msg)
+        if value is not None:
+            return FirstUsed(msg, value, seen[0] - 1)
+    return None

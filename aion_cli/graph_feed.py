@@ -232,14 +232,14 @@ class GraphFeed:
     def peek(self, logset: Any, msg: RawMessage) -> GraphSnapshot | None:
         """The scene graph ``msg`` decoded apart from the stream (no version or layer pinned,
         nothing counted or kept; ``--nav-layer`` and ``--dsg-version`` as given); None when
-        it cannot be decoded."""
+        it cannot be read or decoded, or is a partial update (the stream skips those)."""
         return self._apart(logset, msg, self.nav_layer)
 
     def _apart(self, logset: Any, msg: RawMessage, layer: str | None) -> GraphSnapshot | None:
         from aion_cli.formats.dsg import decode_dsg
 
-        payload, t_ns = self.payload(logset, msg)
-        try:
+        try:  # a partial update or a message that does not read: skipped by the stream too
+            payload, t_ns = self.payload(logset, msg)
             return decode_dsg(payload, t_ns, self.dsg_version, layer).snapshot
         except InputError:
             return None

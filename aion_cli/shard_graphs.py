@@ -127,7 +127,7 @@ def graph_breaks(
             out.append(False)  # the same bytes: the same graph, nothing lost
         else:
             last = _decoded(groups[k], opts, before.last_ns)
-            first = _decoded(groups[k + 1], opts, after.first_ns)
+            first = _first_graph(groups[k + 1], opts)
             out.append(
                 last is not None and first is not None and places_lost(last, first, tolerance)
             )
@@ -137,7 +137,10 @@ def graph_breaks(
 @dataclass(frozen=True)
 class _GraphEnds:
     """When a group's first and last scene graphs were logged, and their DsgUpdate payloads
-    (None where one does not read)."""
+    (None where one does not read); the first is the first the build uses
+    (:func:`aion_cli.build_lineage.first_used_graph`: no stray log time, no partial update,
+    no message whose payload does not read; a damaged payload is passed over when it is
+    decoded, :func:`_first_graph`)."""
 
     first_ns: int
     last_ns: int
@@ -148,6 +151,7 @@ class _GraphEnds:
 def _graph_ends(group: tuple[Path, ...], opts: BuildOptions) -> _GraphEnds | None:
     """:class:`_GraphEnds` of a group of logs; None where there is no scene graph or the logs
     cannot be read by time."""
+    from aion_cli.build_lineage import first_used_graph
     from aion_cli.build_options import build_topics
     from aion_cli.errors import AionError
     from aion_cli.formats.logs import open_logs
@@ -160,11 +164,47 @@ def _graph_ends(group: tuple[Path, ...], opts: BuildOptions) -> _GraphEnds | Non
             found = logset.index_times(topics)
             if found is None or len(found) == 0:
                 return None
-            t = np.sort(np.asarray(found.t, dtype=np.int64))
-            first, last = int(t[0]), int(t[-1])
-            payloads = [_payload_at(logset, opts, topics, at) for at in (first, last)]
-            return _GraphEnds(first, last, *payloads)
+            used = first_used_graph(
+                group, opts.log_format, logset, topics, lambda m: _payload(logset, opts, m)
+            )
+            if used is None:
+                return None
+            last = int(np.max(np.asarray(found.t, dtype=np.int64)))
+            last_payload = _payload_at(logset, opts, topics, last)
+            return _GraphEnds(used.msg.log_time_ns, last, used.value, last_payload)
     except AionError:  # the build reports what it cannot read
+        return None
+
+
+def _payload(logset: Any, opts: BuildOptions, msg: RawMessage) -> bytes | None:
+    """A DsgUpdate's payload as the build reads it (``GraphFeed.payload``), without decoding
+    the graph; None for a partial update or a message that does not read."""
+    from aion_cli.errors import AionError
+
+    try:
+        return bytes(_feed(opts).payload(logset, msg)[0])
+    except AionError:
+        return None
+
+
+def _first_graph(group: tuple[Path, ...], opts: BuildOptions) -> GraphSnapshot | None:
+    """The first scene graph a group of logs' build applies, decoded as the build decodes it
+    (:func:`aion_cli.build_lineage.first_used_graph`; a damaged one is passed over as the
+    stream passes it over); None where none does."""
+    from aion_cli.build_lineage import first_used_graph
+    from aion_cli.build_options import build_topics
+    from aion_cli.errors import AionError
+    from aion_cli.formats.logs import open_logs
+
+    try:
+        with open_logs(list(group), opts.log_format) as logset:
+            topics = build_topics(logset, opts).names("graph")
+            feed = _feed(opts)
+            used = first_used_graph(
+                group, opts.log_format, logset, topics, lambda m: feed.peek(logset, m)
+            )
+            return None if used is None else used.value
+    except AionError:
         return None
 
 

@@ -220,13 +220,17 @@ def test_graph_breaks_between_logs(tmp_path: Path, monkeypatch: pytest.MonkeyPat
         return graph_breaks([(p,) for p in logs], opts, 0.25)
 
     decoded: list[object] = []
-    real = shard_graphs._decoded
 
-    def counting(*args: Any) -> Any:
-        decoded.append(args)
-        return real(*args)
+    def counting(real: Any) -> Any:
+        def count(*args: Any) -> Any:
+            decoded.append(args)
+            return real(*args)
 
-    monkeypatch.setattr(shard_graphs, "_decoded", counting)
+        return count
+
+    # the last graph of a group, and the first its build applies
+    for name in ("_decoded", "_first_graph"):
+        monkeypatch.setattr(shard_graphs, name, counting(getattr(shard_graphs, name)))
     assert breaks(plain, again) == [False]
     assert decoded == []  # the same payload bytes: no decoding
     assert breaks(plain, again, grown) == [False, False]
@@ -256,3 +260,25 @@ def test_groups_kept_together_are_not_cut_nor_their_times_read(
     shards, notes = time_shards.split_groups([a, b], opts, 600 * S, 4, 0.25, frozenset({1}))
     assert read == [a]  # only the other group's times (none found here: not cut)
     assert shards == [(a, None, True), (b, None, True)]
+
+
+def test_graph_breaks_between_logs_from_the_first_graph_used(tmp_path: Path) -> None:
+    """The later log's first graph is the first its build uses: a stray graph message (two
+    days before the log, which the build drops) holding the earlier log's places hid that
+    the log's own graphs moved one of them 5 m (they were compared with the stray: no break;
+    the logs went to two workers, whose join refuses). Now the first kept graph decides: a
+    break, as for the same log without the stray."""
+    from aion_cli.shard_graphs import graph_breaks
+    from tests.cli.logdata import PLACES, graph_payload, write_office_log
+
+    x, y, z = PLACES[6]
+    fewer = {**PLACES, 6: (x + 5.0, y, z)}  # place 6 moved: the earlier log's is lost
+    full, own, stray = tmp_path / "full.mcap", tmp_path / "own.mcap", tmp_path / "stray.mcap"
+    write_office_log(full, "mcap")
+    write_office_log(own, "mcap", places=fewer, shift_s=3600)
+    write_office_log(
+        stray, "mcap", places=fewer, shift_s=3600, early_graph=(2 * 86_400, graph_payload(PLACES))
+    )
+    opts = BuildOptions(logs=(full,), output=tmp_path / "x.aion")
+    assert graph_breaks([(full,), (own,)], opts, 0.25) == [True]
+    assert graph_breaks([(full,), (stray,)], opts, 0.25) == [True]

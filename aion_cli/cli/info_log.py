@@ -28,6 +28,7 @@ def describe(
     read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
     ``verified.messages_read`` counts the messages read."""
     from aion_cli.build_report import NoProgress
+    from aion_cli.engine.windows import iso
     from aion_cli.formats.log_zone import declared_zones
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
@@ -46,9 +47,18 @@ def describe(
         plan = select_topics(logset.topics, mappings=mappings)
         _check_mappings(logset, plan)
         refine_reasons(logset, plan)  # no mapping offered for a type without a position
-        firsts = {info.topic: _first_graph(logset, info.topic) for info in plan.graph}
+        firsts = {
+            info.topic: _first_graph(logset, info.topic, distinct.logs, log_format)
+            for info in plan.graph
+        }
         for topic, first in firsts.items():
             summary.dsg_versions[topic] = first.versions
+            if first.passed:
+                summary.warnings.append(
+                    f"{topic}: described by the first scene graph aion build uses, logged "
+                    f"{iso(first.t_ns or 0)}; {first.passed:,} graph message(s) before it "
+                    "left out (stray log time, damaged or partial update)"
+                )
         report = summary.to_dict()
         not_ros = logset.unreadable_topics  # why a topic in another encoding is not read
         report["warnings"] = distinct.notes + report["warnings"]
@@ -184,21 +194,46 @@ def _sample(logset: Any, topic: str) -> list[Any]:
 
 @dataclass(frozen=True)
 class _FirstGraph:
-    """The first scene graph of a topic: its payload version (or why it is unreadable), its
-    log time, and whether its agent layer holds robot poses (None: unreadable)."""
+    """The first scene graph of a topic that ``aion build`` uses: its payload version (or why
+    it is unreadable), its log time, whether its agent layer holds robot poses (None:
+    unreadable) and how many of the topic's messages before it the build leaves out."""
 
     versions: list[str]
     t_ns: int | None = None
     agents: bool | None = None
+    passed: int = 0
 
 
-def _first_graph(logset: Any, topic: str) -> _FirstGraph:
-    """The topic's first scene graph (decoding one message)."""
+def _first_graph(
+    logset: Any, topic: str, logs: tuple[Path, ...], log_format: str | None
+) -> _FirstGraph:
+    """The topic's first scene graph the build uses (:func:`aion_cli.build_lineage.
+    first_used_graph`: stray log times, damaged messages and partial updates are passed
+    over, as the build passes them over); where none is, the topic's first message, and why
+    it is unreadable."""
     import numpy as np
 
+    from aion_cli.build_lineage import first_used_graph
+    from aion_cli.build_report import BuildReport
     from aion_cli.errors import InputError
     from aion_cli.formats.dsg import decode_dsg
+    from aion_cli.formats.dsg_payload import DecodedGraph
+    from aion_cli.graph_feed import GraphFeed
 
+    feed = GraphFeed(BuildReport(Path()), None, None, 0)
+
+    def peek(msg: Any) -> DecodedGraph | None:
+        try:
+            payload, _ = feed.payload(logset, msg)
+            return decode_dsg(np.asarray(payload, dtype=np.uint8), msg.log_time_ns)
+        except InputError:
+            return None
+
+    used = first_used_graph(logs, log_format, logset, {topic}, peek)
+    if used is not None:
+        agents = used.value.snapshot.agents
+        has = agents is not None and len(agents) > 0
+        return _FirstGraph([used.value.version], used.msg.log_time_ns, has, used.passed)
     first = next(iter(logset.messages({topic})), None)
     if first is None:
         return _FirstGraph([])
