@@ -179,6 +179,9 @@ def first_used_graph(
         if indexed is not None:
             times.add_stream(indexed)
         else:
+            early = _settled_early(own.messages(topics), peek)
+            if early is not None:
+                return early
             for msg in own.messages(topics):
                 times.add(msg.topic, msg.log_time_ns)
         recordings = list(own.recording_times().values())
@@ -193,4 +196,44 @@ def first_used_graph(
         value = peek(msg)
         if value is not None:
             return FirstUsed(msg, value, seen[0] - 1)
+    return None
+
+
+def _settled_early(
+    messages: Iterator[RawMessage], peek: Callable[[RawMessage], T | None]
+) -> FirstUsed[T] | None:
+    """:func:`first_used_graph` of a log without an index, from the first graph messages
+    alone where they settle it (None: they do not; the caller reads every graph's time).
+    A message in a run of more than ``STRAY_MAX_MESSAGES`` of its topic's times without a
+    ``STRAY_GAP_NS`` gap is never a stray (:func:`aion_cli.log_times.stray_mask`; more
+    messages only join runs, and a recording's own run is only ever kept), so once the
+    in-range messages read so far put each one up to the first that ``peek`` reads in such a
+    run, that one is the answer the whole log's times would give. Reads at most
+    ``4 * (STRAY_MAX_MESSAGES + 1)`` in-range messages."""
+    import numpy as np
+
+    from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS
+    from aion_cli.log_times import STRAY_GAP_NS, STRAY_MAX_MESSAGES
+
+    need, limit = STRAY_MAX_MESSAGES + 1, 4 * (STRAY_MAX_MESSAGES + 1)
+    held: list[tuple[int, RawMessage]] = []  # (messages before it, message), in-range only
+    times: dict[str, list[int]] = {}
+    seen = 0
+    for msg in messages:
+        seen += 1
+        if not MIN_TIME_NS <= msg.log_time_ns <= MAX_TIME_NS:
+            continue
+        held.append((seen - 1, msg))
+        times.setdefault(msg.topic, []).append(msg.log_time_ns)
+        if len(held) >= limit:
+            break
+    for before, msg in held:
+        t = np.sort(np.asarray(times[msg.topic], dtype=np.int64))
+        cuts = np.concatenate([[0], np.flatnonzero(np.diff(t) > STRAY_GAP_NS) + 1, [t.size]])
+        at = int(np.searchsorted(cuts, np.searchsorted(t, msg.log_time_ns), "right"))
+        if int(cuts[at] - cuts[at - 1]) < need:
+            return None  # it may be a stray: the whole log's times decide
+        value = peek(msg)
+        if value is not None:
+            return FirstUsed(msg, value, before)
     return None
