@@ -46,3 +46,29 @@ def input_kind(path: str | Path) -> InputKind | None:
     ):
         return "graph"
     return None
+
+
+def bare_zip(path: str | Path) -> tuple[str, str] | None:
+    """``(message, hint)`` when ``path`` is a zip archive holding no aion map manifest: not an
+    aion map and not a log, whether it was given as one or the other (``aion info`` said it
+    could not tell the log format, ``aion predict`` named its first member "unsafe"); None
+    otherwise (an aion map, another file, or an unreadable one)."""
+    import zipfile
+
+    from aion_cli.formats.mapfile import MANIFEST_NAME
+
+    p = Path(path)
+    try:
+        if not p.is_file() or not zipfile.is_zipfile(p):
+            return None
+        with zipfile.ZipFile(p) as archive:
+            if MANIFEST_NAME in archive.namelist():
+                return None
+    except (OSError, ValueError, zipfile.BadZipFile):
+        return None
+    return (
+        f"{p} is a zip archive without an aion map manifest (no {MANIFEST_NAME} inside): "
+        "neither an aion map nor a log",
+        "pass a map written by `aion build` (.aion) or a log (.mcap, .bag, a rosbag2 folder); "
+        "if it was an aion map, it is damaged: rebuild it from the logs",
+    )

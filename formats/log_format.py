@@ -43,6 +43,7 @@ def guess_format(path: Path) -> tuple[str, Path]:
     (``*.mcap.zstd``, ``*.db3.zstd``, read through a decompressed temporary copy); otherwise
     the file's first bytes decide (through zstd too)."""
     from aion_cli.formats import rosbag2_storage as storage
+    from aion_cli.formats.input_kind import bare_zip
 
     check_regular_input(path, "log", hint=_LOG_HINT)  # a FIFO or /dev/zero: before any read
     if not path.exists():
@@ -86,9 +87,13 @@ def guess_format(path: Path) -> tuple[str, Path]:
             f"{path} is zstd-compressed but holds no log aion reads",
             hint="aion reads zstd-compressed rosbag2 storage files (.mcap.zstd, .db3.zstd)",
         )
+    hint = _what_else(path)  # the ground truth `aion simulate` writes is a zip (.npz) too
+    bare = bare_zip(path) if hint is None else None
+    if bare is not None:
+        raise LogFormatError(*bare)
     raise LogFormatError(
         f"cannot tell the log format of {path}",
-        hint=_what_else(path)
+        hint=hint
         or "aion reads .mcap, ROS 1 .bag and rosbag2 folders; use --log-format mcap|bag|rosbag2",
     )
 

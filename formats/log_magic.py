@@ -52,7 +52,7 @@ def looks_like(path: Path) -> str | None:
     if guess is not None:
         return f"a tracks file in {guess.describe()}"
     if head.startswith(b"PK\x03\x04"):
-        return "a zip archive"
+        return "a zip archive without an aion map manifest"
     if head.startswith(b"\x1f\x8b"):
         return "gzip-compressed data"
     return _text(head)

@@ -112,6 +112,12 @@ def validate_manifest(manifest: object, path: Path) -> dict[str, Any]:
 
 def _check_zip_names(zf: zipfile.ZipFile, path: Path) -> None:
     names = [info.filename for info in zf.infolist()]
+    if MANIFEST_NAME not in names:  # a zip of anything: said so, not its first name "unsafe"
+        from aion_cli.formats.input_kind import bare_zip
+
+        bare = bare_zip(path)
+        if bare is not None:
+            raise MapFileError(*bare)
     if len(names) != len(set(names)):
         raise MapCorruptError(f"map {path} has duplicate zip members", hint="rebuild the map")
     for info in zf.infolist():
