@@ -6,7 +6,8 @@ message by its time check (:mod:`aion_cli.log_times`: a run of at most ten messa
 than a day from its topic's others). :func:`span_without_strays` applies the same rule
 (:meth:`~aion_cli.log_times.TopicTimes.check`, over every topic but static transforms, as the
 build's span leaves those out) to the log times the containers' indexes give, so ``info``
-shows the span the build will have and names the strays in one warning.
+shows the span the build will have and names the strays in one warning; the time recorded
+leaves them out too, recording by recording (:func:`_recorded_ns`).
 """
 
 from __future__ import annotations
@@ -22,11 +23,14 @@ from aion_cli.engine.windows import iso
 
 @dataclass(frozen=True)
 class SpanCheck:
-    """The first and last kept log time, and the stray log times per topic (sorted)."""
+    """The first and last kept log time, the stray log times per topic (sorted), and how long
+    the logs recorded without them (the union of their recordings' spans, as
+    :meth:`formats.logs.LogSet.recorded_total_ns` counts it)."""
 
     start_ns: int
     end_ns: int
     strays: dict[str, I64]
+    recorded_ns: int
 
     def warning(self) -> str:
         """One line naming every stray (topic, count, first time) and the span shown."""
@@ -64,4 +68,30 @@ def span_without_strays(logset: Any) -> SpanCheck | None:
     joined = np.concatenate(kept)
     if joined.size == 0:
         return None
-    return SpanCheck(int(joined.min()), int(joined.max()), checked.strays)
+    recorded = _recorded_ns(logset, topics, span, checked.strays)
+    return SpanCheck(int(joined.min()), int(joined.max()), checked.strays, recorded)
+
+
+def _recorded_ns(logset: Any, topics: set[str], span: set[str], strays: dict[str, I64]) -> int:
+    """The union of the recordings' spans, a recording that holds a stray spanning its other
+    messages (each recording of several logs, not only the whole set: one stray in one of
+    two logs counted its year in the time recorded)."""
+    from aion_cli.formats.logs import covered_ns
+    from aion_cli.log_times import in_range_mask
+
+    spans = logset.recording_times()
+    by_recording = logset.index_times_by_recording(topics)
+    if by_recording is None:  # index_times gave the times just before: not expected
+        return int(covered_ns(spans.values()))
+    for key, part in by_recording.items():
+        kept = []
+        for topic in topics:
+            t = part.of(topic)
+            t = t[in_range_mask(t)].astype(np.int64)
+            if topic in span and topic in strays:
+                t = t[~np.isin(t, strays[topic])]
+            kept.append(t)
+        times = np.concatenate(kept) if kept else np.zeros(0, np.int64)
+        if key in spans and times.size < part.t.size:
+            spans[key] = (int(times.min()), int(times.max())) if times.size else spans[key]
+    return int(covered_ns(spans.values()))

@@ -287,6 +287,26 @@ class LogSet:
                 source.vouch(part.chunks)
         return found
 
+    def index_times_by_recording(self, topics: Iterable[str]) -> dict[int, StreamTimes] | None:
+        """:meth:`index_times` per recording (the keys of :meth:`recording_times`), nothing
+        vouched for; None when one file's index cannot give the times."""
+        from aion_cli.formats import stream_times
+
+        selected = set(topics)
+        parts: dict[int, list[StreamTimes]] = {}
+        for key, source in zip(self._recordings, self._sources, strict=True):
+            part = source.index_times(selected)
+            if part is None:
+                return None
+            parts.setdefault(key, []).append(part)
+        joined: dict[int, StreamTimes] = {}
+        for key, found in parts.items():
+            merged = stream_times.merged(found)
+            if merged is None:
+                return None
+            joined[key] = merged
+        return joined
+
     def decode(self, msg: RawMessage) -> Any:
         """``msg`` as a rosbags message object, decoded with the definition the log embeds for
         its topic (shipped definitions from :mod:`formats.msgdefs` when the log has none)."""

@@ -104,7 +104,7 @@ def _leave_out_strays(summary: Any, logset: Any) -> None:
     if check is None:
         return
     summary.start_ns, summary.end_ns = check.start_ns, check.end_ns
-    summary.recorded_ns = min(summary.recorded_ns, check.end_ns - check.start_ns)
+    summary.recorded_ns = check.recorded_ns
     summary.warnings.append(check.warning())
 
 

@@ -63,3 +63,35 @@ def test_a_stray_log_time_is_left_out_of_the_span_in_every_container(
     assert info["span_s"] == 29.0
     (warning,) = [w for w in info["warnings"] if "stray log time" in w]
     assert "1 on /chatter (first: 2024-02-22 22:13:20 UTC)" in warning, warning
+
+
+def _thirty_seconds(path: Path, container: str, t0: int, stray: int | None = None) -> None:
+    """30 messages one a second on /chatter and /people_count from ``t0``; with ``stray``,
+    one more /chatter message at that time."""
+    from aion_cli.formats.writers import LogWriter
+
+    with LogWriter(path, container) as w:
+        for k in range(30):
+            w.write("/chatter", "std_msgs/msg/String", {"data": f"m{k}"}, t0 + k * S)
+            w.write("/people_count", "std_msgs/msg/Int32", {"data": k}, t0 + k * S)
+        if stray is not None:
+            w.write("/chatter", "std_msgs/msg/String", {"data": "late"}, stray)
+
+
+@pytest.mark.parametrize("container", ["bag", "mcap"])
+def test_the_time_recorded_by_several_logs_leaves_a_stray_out(
+    container: str, tmp_path: Path
+) -> None:
+    """Two logs of 29 s a week apart, the first with one message a year late: 58 s recorded,
+    as for the two logs without the stray (before: the whole week between them)."""
+    week = 7 * 86_400 * S
+    a, b, clean = (tmp_path / f"{n}.{container}" for n in ("a", "b", "clean"))
+    _thirty_seconds(a, container, T0, stray=T0 + 365 * 86_400 * S)
+    _thirty_seconds(b, container, T0 + week)
+    _thirty_seconds(clean, container, T0)
+    damaged = run_json("info", a, b, "--format", "json")
+    intact = run_json("info", clean, b, "--format", "json")
+    assert damaged["recordings"] == intact["recordings"] == 2
+    assert damaged["recorded_s"] == intact["recorded_s"] == 58.0
+    assert damaged["span_s"] == intact["span_s"] == (week + 29 * S) / S
+    assert any("1 on /chatter" in w for w in damaged["warnings"] if "stray log time" in w)
