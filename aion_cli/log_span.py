@@ -12,37 +12,54 @@ leaves them out too, recording by recording (:func:`_recorded_ns`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.engine.types import I64
 from aion_cli.engine.windows import iso
 
 
 @dataclass(frozen=True)
 class SpanCheck:
-    """The first and last kept log time, the stray log times per topic (sorted), and how long
-    the logs recorded without them (the union of their recordings' spans, as
+    """The first and last kept log time, the stray log times per topic (sorted), the log
+    times outside the representable range per topic (count, first), and how long the logs
+    recorded without either (the union of their recordings' spans, as
     :meth:`formats.logs.LogSet.recorded_total_ns` counts it)."""
 
     start_ns: int
     end_ns: int
     strays: dict[str, I64]
     recorded_ns: int
+    out_of_range: dict[str, tuple[int, int]] = field(default_factory=dict)
 
-    def warning(self) -> str:
-        """One line naming every stray (topic, count, first time) and the span shown."""
-        named = "; ".join(
-            f"{t.size:,} on {topic} (first: {iso(int(t[0]))})"
-            for topic, t in sorted(self.strays.items())
-        )
-        return (
-            f"stray log time(s) left out of the span shown ({iso(self.start_ns)} .. "
-            f"{iso(self.end_ns)}): {named}: more than a day away from the topic's other "
-            "messages; aion build drops them (docs/ROBUSTNESS.md, time sanity)"
-        )
+    def warnings(self) -> list[str]:
+        """One line naming every stray (topic, count, first time) and the span shown, and one
+        naming every log time outside the range a build takes."""
+        shown = f"({iso(self.start_ns)} .. {iso(self.end_ns)})"
+        out = []
+        if self.out_of_range:
+            named = "; ".join(
+                f"{n:,} on {topic} (first: {iso(first)})"
+                for topic, (n, first) in sorted(self.out_of_range.items())
+            )
+            out.append(
+                f"log time(s) outside {TIME_RANGE_TEXT} left out of the span shown {shown}: "
+                f"{named}; aion build drops them (docs/ROBUSTNESS.md, time sanity)"
+            )
+        if self.strays:
+            named = "; ".join(
+                f"{t.size:,} on {topic} (first: {iso(int(t[0]))})"
+                for topic, t in sorted(self.strays.items())
+            )
+            out.append(
+                f"stray log time(s) left out of the span shown {shown}: {named}: more than a "
+                "day away from the topic's other messages; aion build drops them "
+                "(docs/ROBUSTNESS.md, time sanity)"
+            )
+        return out
 
 
 def span_without_strays(logset: Any) -> SpanCheck | None:
@@ -59,7 +76,12 @@ def span_without_strays(logset: Any) -> SpanCheck | None:
     times = TopicTimes(topics)
     times.add_stream(indexed)
     checked = times.check(span, list(logset.recording_times().values()))
-    if not checked.strays:
+    out_of_range = {
+        topic: (n, checked.first_out_of_range[topic])
+        for topic, n in checked.out_of_range.items()
+        if n
+    }
+    if not checked.strays and not out_of_range:
         return None
     kept = [checked.span_times]
     for topic in topics - span:  # static transforms: all their (representable) times
@@ -69,7 +91,9 @@ def span_without_strays(logset: Any) -> SpanCheck | None:
     if joined.size == 0:
         return None
     recorded = _recorded_ns(logset, topics, span, checked.strays)
-    return SpanCheck(int(joined.min()), int(joined.max()), checked.strays, recorded)
+    return SpanCheck(
+        int(joined.min()), int(joined.max()), checked.strays, recorded, out_of_range
+    )
 
 
 def _recorded_ns(logset: Any, topics: set[str], span: set[str], strays: dict[str, I64]) -> int:

@@ -105,7 +105,7 @@ def _leave_out_strays(summary: Any, logset: Any) -> None:
         return
     summary.start_ns, summary.end_ns = check.start_ns, check.end_ns
     summary.recorded_ns = check.recorded_ns
-    summary.warnings.append(check.warning())
+    summary.warnings += check.warnings()
 
 
 def _overlaps(logset: Any, plan: Any) -> list[str]:

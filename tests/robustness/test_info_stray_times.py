@@ -8,11 +8,16 @@ from __future__ import annotations
 
 import shutil
 import sqlite3
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
 
+from aion_cli.engine.mapper import MAX_TIME_NS
 from tests.cli.conftest import run_json
+from tests.robustness.conftest import T0 as T0_WALK
+from tests.robustness.conftest import build_json, walk, write_log
+from tests.robustness.mcap_edit import copy_with, payload_of
 from tests.shared_data import real
 
 S = 1_000_000_000
@@ -95,3 +100,33 @@ def test_the_time_recorded_by_several_logs_leaves_a_stray_out(
     assert damaged["recorded_s"] == intact["recorded_s"] == 58.0
     assert damaged["span_s"] == intact["span_s"] == (week + 29 * S) / S
     assert any("1 on /chatter" in w for w in damaged["warnings"] if "stray log time" in w)
+
+
+@pytest.mark.parametrize("when", [2**63 + 5, 2**64 - 1, MAX_TIME_NS + 86_400 * S])
+def test_a_log_time_past_2261_is_left_out_of_the_span_as_the_build_drops_it(
+    when: int, tmp_path: Path
+) -> None:
+    """Two minutes of /tracks and one more /tracks message at an MCAP (uint64) log time past
+    the range a build takes (2261-01-01): info shows the two minutes, as the build's time
+    span, and names the time as the build does. Before: a span of 87,076 days (2^63 + 5) or
+    193,828 days (2^64 - 1) ending in 2262 or 2554, without a word."""
+    clean = write_log(tmp_path / "clean.mcap", walk(120))
+    late = copy_with(
+        clean, tmp_path / "late.mcap", [("/tracks", "", payload_of(clean, "/tracks"), when)]
+    )
+    intact = run_json("info", clean, "--format", "json")
+    info = run_json("info", late, "--format", "json")
+    assert info["messages"] == intact["messages"] + 1
+    for key in ("start_ns", "end_ns", "span_s", "recorded_s", "start", "end"):
+        assert info[key] == intact[key], key
+    assert (info["start_ns"], info["end_ns"]) == (T0_WALK, T0_WALK + 119 * S)
+    first = (datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=when // 1000)).strftime(
+        "%Y-%m-%d %H:%M:%S UTC"
+    )
+    (warning,) = [w for w in info["warnings"] if "left out of the span" in w]
+    assert "outside 1900-01-01 .. 2261-01-01 UTC" in warning, warning
+    assert f"1 on /tracks (first: {first})" in warning, warning
+    report = build_json(late, "-o", tmp_path / "late.aion")
+    assert report["log_times_dropped"] == {"/tracks": {"out_of_range": 1, "stray": 0}}
+    span = report["time_span"]
+    assert (span["start_ns"], span["end_ns"]) == (info["start_ns"], info["end_ns"])
