@@ -34,6 +34,9 @@ class SpanCheck:
     strays: dict[str, I64]
     recorded_ns: int
     out_of_range: dict[str, tuple[int, int]] = field(default_factory=dict)
+    #: how long the recordings holding a topic recorded, for the topics whose recordings held
+    #: a time left out (their rates are over it)
+    topic_recorded_ns: dict[str, int] = field(default_factory=dict)
 
     def warnings(self) -> list[str]:
         """One line naming every stray (topic, count, first time) and the span shown, and one
@@ -90,23 +93,27 @@ def span_without_strays(logset: Any) -> SpanCheck | None:
     joined = np.concatenate(kept)
     if joined.size == 0:
         return None
-    recorded = _recorded_ns(logset, topics, span, checked.strays)
+    recorded, by_topic = _recorded_ns(logset, topics, span, checked.strays)
     return SpanCheck(
-        int(joined.min()), int(joined.max()), checked.strays, recorded, out_of_range
+        int(joined.min()), int(joined.max()), checked.strays, recorded, out_of_range, by_topic
     )
 
 
-def _recorded_ns(logset: Any, topics: set[str], span: set[str], strays: dict[str, I64]) -> int:
+def _recorded_ns(
+    logset: Any, topics: set[str], span: set[str], strays: dict[str, I64]
+) -> tuple[int, dict[str, int]]:
     """The union of the recordings' spans, a recording that holds a stray spanning its other
     messages (each recording of several logs, not only the whole set: one stray in one of
-    two logs counted its year in the time recorded)."""
+    two logs counted its year in the time recorded); and the same union per topic held by
+    such a recording, over the recordings that hold the topic (its rate's time)."""
     from aion_cli.formats.logs import covered_ns
     from aion_cli.log_times import in_range_mask
 
     spans = logset.recording_times()
     by_recording = logset.index_times_by_recording(topics)
     if by_recording is None:  # index_times gave the times just before: not expected
-        return int(covered_ns(spans.values()))
+        return int(covered_ns(spans.values())), {}
+    changed: set[str] = set()
     for key, part in by_recording.items():
         kept = []
         for topic in topics:
@@ -116,6 +123,14 @@ def _recorded_ns(logset: Any, topics: set[str], span: set[str], strays: dict[str
                 t = t[~np.isin(t, strays[topic])]
             kept.append(t)
         times = np.concatenate(kept) if kept else np.zeros(0, np.int64)
-        if key in spans and times.size < part.t.size:
-            spans[key] = (int(times.min()), int(times.max())) if times.size else spans[key]
-    return int(covered_ns(spans.values()))
+        if key in spans and 0 < times.size < part.t.size:
+            spans[key] = (int(times.min()), int(times.max()))
+            changed |= {topic for topic in topics if part.of(topic).size}
+    per_topic = {
+        topic: int(covered_ns(
+            spans[key] for key, part in by_recording.items()
+            if key in spans and part.of(topic).size
+        ))
+        for topic in changed
+    }  # fmt: skip
+    return int(covered_ns(spans.values())), per_topic

@@ -105,7 +105,20 @@ def _leave_out_strays(summary: Any, logset: Any) -> None:
         return
     summary.start_ns, summary.end_ns = check.start_ns, check.end_ns
     summary.recorded_ns = check.recorded_ns
+    summary.topics = [_rate_over(t, check.topic_recorded_ns.get(t.topic)) for t in summary.topics]
     summary.warnings += check.warnings()
+
+
+def _rate_over(topic: Any, recorded_ns: int | None) -> Any:
+    """``topic``'s summary with its rate over ``recorded_ns`` (the time its recordings
+    recorded without the log times left out of the span), unchanged when that is None."""
+    from dataclasses import replace
+
+    if recorded_ns is None or not topic.readable:
+        return topic
+    seconds = recorded_ns / 1e9
+    rate = topic.count / seconds if seconds > 0 and topic.count > 1 else None
+    return replace(topic, rate_hz=rate)
 
 
 def _overlaps(logset: Any, plan: Any) -> list[str]:

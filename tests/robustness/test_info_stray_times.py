@@ -17,7 +17,7 @@ from aion_cli.engine.mapper import MAX_TIME_NS
 from tests.cli.conftest import run_json
 from tests.robustness.conftest import T0 as T0_WALK
 from tests.robustness.conftest import build_json, walk, write_log
-from tests.robustness.mcap_edit import copy_with, payload_of
+from tests.robustness.mcap_edit import STRING_CDR, copy_with, payload_of
 from tests.shared_data import real
 
 S = 1_000_000_000
@@ -130,3 +130,25 @@ def test_a_log_time_past_2261_is_left_out_of_the_span_as_the_build_drops_it(
     assert report["log_times_dropped"] == {"/tracks": {"out_of_range": 1, "stray": 0}}
     span = report["time_span"]
     assert (span["start_ns"], span["end_ns"]) == (info["start_ns"], info["end_ns"])
+
+
+@pytest.mark.parametrize("late", [T0 + 365 * 86_400 * S, 2**64 - 1])
+def test_a_topic_rate_is_over_the_time_without_the_left_out_times(
+    late: int, tmp_path: Path
+) -> None:
+    """30 messages a second on /chatter and /people_count over 29 s, plus one /chatter
+    message a year late (or at MCAP's last log time): /people_count's rate is the clean
+    log's, /chatter's its 31 messages over 29 s (before: over the year, 9.8e-07 Hz)."""
+    clean = tmp_path / "clean.mcap"
+    _thirty_seconds(clean, "mcap", T0)
+    if late <= MAX_TIME_NS:
+        damaged = tmp_path / "damaged.mcap"
+        _thirty_seconds(damaged, "mcap", T0, stray=late)
+    else:
+        damaged = copy_with(clean, tmp_path / "damaged.mcap", [("/chatter", "", STRING_CDR, late)])
+    rates = {
+        name: {t["topic"]: t["rate_hz"] for t in run_json("info", p, "--format", "json")["topics"]}
+        for name, p in (("clean", clean), ("damaged", damaged))
+    }
+    assert rates["damaged"]["/people_count"] == rates["clean"]["/people_count"]
+    assert rates["damaged"]["/chatter"] == pytest.approx(31 / 29, abs=1e-3)
