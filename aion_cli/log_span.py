@@ -37,6 +37,8 @@ class SpanCheck:
     #: how long the recordings holding a topic recorded, for the topics whose recordings held
     #: a time left out (their rates are over it)
     topic_recorded_ns: dict[str, int] = field(default_factory=dict)
+    #: every log time is left out: the span is the log's own, which no build will have
+    nothing_kept: bool = False
 
     def warnings(self) -> list[str]:
         """One line naming every stray (topic, count, first time) and the span shown, and one
@@ -48,6 +50,12 @@ class SpanCheck:
                 f"{n:,} on {topic} (first: {iso(first)})"
                 for topic, (n, first) in sorted(self.out_of_range.items())
             )
+            if self.nothing_kept:
+                return [
+                    f"every log time lies outside {TIME_RANGE_TEXT}, the span shown too: "
+                    f"{named}; aion build drops them all and has nothing to build from "
+                    "(docs/ROBUSTNESS.md, time sanity)"
+                ]
             out.append(
                 f"log time(s) outside {TIME_RANGE_TEXT} left out of the span shown {shown}: "
                 f"{named}; aion build drops them (docs/ROBUSTNESS.md, time sanity)"
@@ -91,8 +99,13 @@ def span_without_strays(logset: Any) -> SpanCheck | None:
         t = indexed.of(topic)
         kept.append(t[in_range_mask(t)].astype(np.int64))
     joined = np.concatenate(kept)
-    if joined.size == 0:
-        return None
+    if joined.size == 0:  # every time left out: the log's own span shown, and said so
+        if not out_of_range:
+            return None
+        return SpanCheck(
+            int(logset.start_ns), int(logset.end_ns), checked.strays,
+            int(logset.recorded_total_ns()), out_of_range, nothing_kept=True,
+        )  # fmt: skip
     recorded, by_topic = _recorded_ns(logset, topics, span, checked.strays)
     return SpanCheck(
         int(joined.min()), int(joined.max()), checked.strays, recorded, out_of_range, by_topic

@@ -152,3 +152,23 @@ def test_a_topic_rate_is_over_the_time_without_the_left_out_times(
     }
     assert rates["damaged"]["/people_count"] == rates["clean"]["/people_count"]
     assert rates["damaged"]["/chatter"] == pytest.approx(31 / 29, abs=1e-3)
+
+
+def test_a_log_whose_every_time_lies_past_2261_says_so(tmp_path: Path) -> None:
+    """Twenty /tracks messages, every one logged past int64 (2264): info shows the log's own
+    span (the times are real, 19 s apart) and says every time lies outside the range a build
+    takes (before: the 2264 span without a word; the build stops with exit 2)."""
+    from tests.robustness.test_time_sanity import BEYOND_INT64, _copy_only_beyond
+
+    source = write_log(tmp_path / "one.mcap", walk(1))
+    payload = payload_of(source, "/tracks")
+    extra = [("/tracks", "", payload, BEYOND_INT64 + k * S) for k in range(20)]
+    mixed = copy_with(source, tmp_path / "mixed.mcap", extra)
+    only_bad = tmp_path / "only_bad.mcap"
+    _copy_only_beyond(mixed, only_bad)
+    info = run_json("info", only_bad, "--format", "json")
+    assert (info["start_ns"], info["end_ns"]) == (BEYOND_INT64, BEYOND_INT64 + 19 * S)
+    assert (info["span_s"], info["recorded_s"]) == (19.0, 19.0)
+    (warning,) = [w for w in info["warnings"] if "2261-01-01" in w]
+    assert warning.startswith("every log time lies outside 1900-01-01 .. 2261-01-01 UTC"), warning
+    assert "20 on /tracks (first: 2264-09-14 21:20:00 UTC)" in warning, warning
