@@ -69,6 +69,7 @@ class StreamStep:
     previous: LoadedMap | None
     previous_manifest: Manifest | None
     _times: TimeCheck
+    _marks: I64
     _part_total: int | None
     _map_open: int | None
     _logs: tuple[Path, ...]
@@ -220,7 +221,7 @@ class StreamStep:
         if use_agents and self.report.graph_messages == 0 and self.time_part is None:
             self.report.observation = fixed_sensor_windows(
                 mapper, logset, self._times, self.report.notes, self.report, self.opts.observed,
-                marked=self.opts.observed_marked,
+                marks=self._marks,
             )
 
     def _leave(

@@ -65,7 +65,7 @@ def fixed_sensor_windows(
     report: Any = None,
     declared: tuple[tuple[int, int], ...] = (),
     fill: tuple[int | None, int | None] = (None, None),
-    marked: tuple[tuple[int, int], ...] = (),
+    marks: I64 | None = None,
 ) -> str:
     """The observation of a log without a robot trajectory (neither TF nor scene-graph
     agents), from its log times: a fixed sensor observes exactly the windows in which the logs
@@ -84,10 +84,9 @@ def fixed_sensor_windows(
     the logs: :func:`declared_windows`). A window a log starts or ends inside counts for
     the part of it recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a
     four-minute log is four minutes of watching, not ten; a window without a message counts
-    for the part the declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also a
-    window only the empty markers of the ``marked`` spans hold (``aion convert --observed``:
-    :mod:`aion_cli.log_observed`). Sets the Mapper's windows, adds a note for windows left
-    out, and returns the report's description of the observation."""
+    for the part the declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also one
+    only marker messages hold (``marks``: :func:`~aion_cli.log_observed.marker_times`). Sets
+    the Mapper's windows, notes the windows left out, and returns the observation's text."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
     from aion_cli.log_observed import declared_start_ns
@@ -104,10 +103,10 @@ def fixed_sensor_windows(
             f"not taken as observed (first: {iso(first)})"
         )
     recorded = recorded[inside]
-    if marked:  # the windows only markers hold: as if without a message
+    if marks is not None and marks.size:  # the windows only markers hold: without a message
         from aion_cli.log_observed import without_markers
 
-        times, only_marks = without_markers(times, marked, delta)
+        times, only_marks = without_markers(times, marks, delta)
         recorded = np.setdiff1d(recorded, only_marks)
     read = windows_of(times.span_times, delta)  # the windows of the messages aion reads
     windows = np.union1d(recorded, read)

@@ -22,10 +22,14 @@ import numpy as np
 
 from aion_cli.build_options import BuildOptions
 from aion_cli.engine.types import I64
-from aion_cli.log_times import TimeCheck
+from aion_cli.log_times import TimeCheck, TopicTimes
 from aion_cli.manifest import Manifest
 
 Spans = tuple[tuple[int, int], ...]
+
+NO_MARKS: I64 = np.zeros(0, np.int64)
+"""No message marks a span (:func:`marker_times` of a build whose logs record none)."""
+NO_MARKS.flags.writeable = False
 
 
 def with_logs_observed(opts: BuildOptions) -> tuple[BuildOptions, list[str]]:
@@ -59,33 +63,52 @@ def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, lis
     ]
 
 
-def unmarked_times(times: I64, marked: Spans) -> I64:
-    """``times`` (log times, any order) without one message at each stamp of the empty
-    marker messages of the ``marked`` spans (each span as its log marked it:
+def marker_times(marked: Spans, times: TopicTimes, strays: dict[str, I64]) -> I64:
+    """The log times of the messages that only mark the ``marked`` spans (sorted, a time once
+    per message): the empty marker messages (each span as its log marked it:
     :func:`formats.tracks_log.observed_stamps` of it alone, since two logs' touching spans
-    are marked apart; a detection message at a marker's stamp stays), sorted."""
+    are marked apart), and the scene graphs of ``times`` (``GraphTimes``: the build reads its
+    logs' graphs; ``strays`` left out, as the build drops them) that share a marker's stamp:
+    the one ``aion convert --graph`` writes in a log of spans without detections, at its
+    first marker, is no detection message either (a graph convert writes with a detection
+    message shares the detection's stamp, which then stays)."""
     from aion_cli.formats.tracks_log import observed_stamps
+    from aion_cli.graph_schedule import GraphTimes
 
-    t = np.sort(np.asarray(times, np.int64))
-    if not marked or t.size == 0:
-        return t
+    if not marked:
+        return NO_MARKS
     marks = np.unique(np.concatenate([observed_stamps([span]) for span in marked]))
-    marks = marks[(marks >= t[0]) & (marks <= t[-1])]
-    at = np.searchsorted(t, marks, "left")
-    hit = at < t.size
-    hit[hit] = t[at[hit]] == marks[hit]
+    if not isinstance(times, GraphTimes):
+        return marks
+    graphs = times.stream_times(strays)
+    out: I64 = np.sort(np.concatenate([marks, graphs[np.isin(graphs, marks)]]))
+    return out
+
+
+def unmarked_times(times: I64, marks: I64) -> I64:
+    """``times`` (log times, any order) without one message at each of the ``marks``
+    (:func:`marker_times`, sorted; a time there twice: two messages; a detection message at
+    a marker's stamp stays), sorted."""
+    t = np.sort(np.asarray(times, np.int64))
+    if marks.size == 0 or t.size == 0:
+        return t
+    stamps, count = np.unique(marks[(marks >= t[0]) & (marks <= t[-1])], return_counts=True)
+    lo = np.searchsorted(t, stamps, "left")
+    n = np.minimum(count, np.searchsorted(t, stamps, "right") - lo)  # messages to drop there
+    first = np.repeat(lo, n)
+    drop = first + np.arange(first.size) - np.repeat(np.cumsum(n) - n, n)
     keep = np.ones(t.size, bool)
-    keep[at[hit]] = False
+    keep[drop] = False
     out: I64 = t[keep]
     return out
 
 
-def without_markers(times: TimeCheck, marked: Spans, delta: int) -> tuple[TimeCheck, I64]:
-    """``times`` without the empty marker messages of the ``marked`` spans
-    (:func:`unmarked_times`), and the windows of ``delta`` ns that only markers held."""
+def without_markers(times: TimeCheck, marks: I64, delta: int) -> tuple[TimeCheck, I64]:
+    """``times`` without the messages that only mark spans (``marks``: :func:`marker_times`;
+    :func:`unmarked_times`), and the windows of ``delta`` ns that only those held."""
     from aion_cli.formats.recorded import windows_of
 
-    kept = unmarked_times(times.span_times, marked)
+    kept = unmarked_times(times.span_times, marks)
     only = np.setdiff1d(windows_of(times.span_times, delta), windows_of(kept, delta))
     return replace(times, span_times=kept, _pending=Counter()), only
 

@@ -70,7 +70,7 @@ from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
-from aion_cli.log_observed import observed_fill, with_logs_observed
+from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
 from aion_cli.log_times import TopicTimes, overlap_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap, load_map
@@ -136,6 +136,7 @@ class _Build(StreamStep):
         self._whole_times = self._times  # without a time shard's limits
         # the windows holding a detection message (a robot's windows without one are noted)
         self._detection_windows: I64 | None = None
+        self._marks = NO_MARKS  # the times of the messages that only mark spans
         self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
         self._tally = MapperTally(0)  # what the Mapper accepted and dropped, per topic
@@ -377,6 +378,7 @@ class _Build(StreamStep):
         self._times = self._whole_times = check_times(
             times, plan, timed, self.report, list(logset.recording_times().values())
         )
+        self._marks = marker_times(self.opts.observed_marked, times, self._whole_times.strays)
         self._detection_windows = times.windows(
             plan.names("detections"), window_ns(self.config().window_s)
         )
@@ -439,7 +441,7 @@ class _Build(StreamStep):
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
             self.opts.observed, self._detection_windows,
             observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
-            self.opts.observed_marked,
+            self._marks,
         )
 
     def _fixed_graph(

@@ -306,7 +306,7 @@ def observe(
     declared: tuple[tuple[int, int], ...] = (),
     detection_windows: I64 | None = None,
     fill: tuple[int | None, int | None] = (None, None),
-    marked: tuple[tuple[int, int], ...] = (),
+    marks: I64 | None = None,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -314,12 +314,13 @@ def observe(
     per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
     spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
     a warning: its poses say what it saw; ``fill`` widens the time they may fill:
-    :func:`~aion_cli.fixed_sensor.declared_windows`; ``marked``: those the logs mark with
-    empty messages). ``detection_windows``: the windows holding a
-    message of a detection topic; the robot's windows without one are counted in a note
-    (:func:`silent_note`). Beside a robot trajectory, logs of other times that hold none of its
-    poses are fixed sensors over their own windows (:func:`unposed_log_windows`), as a build of
-    them alone (a continuation, a parallel shard) observes them."""
+    :func:`~aion_cli.fixed_sensor.declared_windows`; ``marks``: the times of the messages
+    that only mark the spans the logs record, :func:`aion_cli.log_observed.marker_times`).
+    ``detection_windows``: the windows holding a message of a detection topic; the robot's
+    windows without one are counted in a note (:func:`silent_note`). Beside a robot
+    trajectory, logs of other times that hold none of its poses are fixed sensors over their
+    own windows (:func:`unposed_log_windows`), as a build of them alone (a continuation, a
+    parallel shard) observes them."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -365,7 +366,7 @@ def observe(
         if wrong_base is not None:
             report.warnings.append(wrong_base)
         report.observation = fixed_sensor_windows(
-            mapper, logset, times, report.notes, report, declared, fill, marked
+            mapper, logset, times, report.notes, report, declared, fill, marks
         )
         report.notes.append(
             f"{NO_TRAJECTORY_NOTE}{map_frame}->{base_frame} or scene-graph agents): the log "

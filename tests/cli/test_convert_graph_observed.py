@@ -93,26 +93,44 @@ def test_a_graph_in_another_log_than_the_detections_is_not_said_missing(
     ]
 
 
+LONE_SPANS = {
+    "two-spans": (("2026-11-25 08:05..2026-11-25 08:17", "2026-11-25 09:00..2026-11-25 09:05"),
+                  1.7, 3),
+    "short-first": (("2026-11-25 08:05..2026-11-25 08:07", "2026-11-25 08:08..2026-11-25 08:09",
+                     "2026-11-25 09:00..2026-11-25 09:05"), 0.8, 2),
+}
+
+
+@pytest.mark.parametrize("case", list(LONE_SPANS))
+@pytest.mark.parametrize("workers", ["1", "2"])
 def test_the_lone_graph_observes_no_more_of_a_window_than_its_span(
-    two: Path, tmp_path: Path
+    two: Path, tmp_path: Path, case: str, workers: str
 ) -> None:
-    """Spans 08:05-08:17 and 09:00-09:05 on the 25th, nobody in them, beside the people's
-    log: 08:00-08:10 is observed from 08:05 (0.5), 08:10-08:20 to 08:17 (0.7), 09:00-09:10 to
-    09:05 (0.5), so 1.7 windows over the people's 4 - 1/30. The graph went to the middle
-    marker of the longest span, 08:11, and made 08:10-08:20, a window inside the log, count
-    whole (2.0); at the log's first marker, 08:05, the log's start cuts its window as the
-    span does."""
+    """Spans on the 25th, nobody in them, beside the people's log. 08:05-08:17 and
+    09:00-09:05: 08:00-08:10 is observed from 08:05 (0.5), 08:10-08:20 to 08:17 (0.7),
+    09:00-09:10 to 09:05 (0.5), so 1.7 windows over the people's 4 - 1/30, in 3 windows
+    without a detection. The graph went to the middle marker of the longest span, 08:11, and
+    made 08:10-08:20, a window inside the log, count whole (2.0); at the log's first marker,
+    08:05, it was still a message: the note counted 2 windows without one, and with a first
+    span shorter than the rest of its window (08:05-08:07, 08:08-08:09: 0.3 of 08:00-08:10)
+    the log's own start counted that window from 08:05 on (0.5). The graph at a marker's
+    stamp is a marker: same windows, same note, as without the graph."""
+    spans, share, silent = LONE_SPANS[case]
     empty = tmp_path / "none.csv"
     empty.write_text("")
     people = tmp_path / "people.mcap"
     convert_atc(two, people)
-    spans = ("--observed", "2026-11-25 08:05..2026-11-25 08:17",
-             "--observed", "2026-11-25 09:00..2026-11-25 09:05")
-    windows = {}
+    observed = [a for span in spans for a in ("--observed", span)]
+    windows, notes = {}, {}
     for name, extra in (("g", ("--graph", str(GRAPH))), ("p", ())):
-        convert_atc(empty, tmp_path / f"{name}.mcap", *spans, *extra)
-        run_json("build", people, tmp_path / f"{name}.mcap", "-o", tmp_path / f"{name}.aion",
-                 "--format", "json", "--workers", "1")
+        convert_atc(empty, tmp_path / f"{name}.mcap", *observed, *extra)
+        built = run_json("build", people, tmp_path / f"{name}.mcap", "-o",
+                         tmp_path / f"{name}.aion", "--format", "json", "--workers", workers)
         windows[name] = observed_windows(tmp_path / f"{name}.aion")
-    assert windows["p"].max() == pytest.approx(4 - 1 / 30 + 1.7)
+        notes[name] = [n for n in built["notes"] if n.startswith("--observed: ")]
+    assert windows["p"].max() == pytest.approx(4 - 1 / 30 + share)
     assert windows["g"].tobytes() == windows["p"].tobytes()
+    assert notes["g"] == notes["p"] == [
+        f"--observed: {silent} window(s) without a message taken as observed ({silent}0 min), "
+        "up to the last log's last message (the time between the logs included)"
+    ]

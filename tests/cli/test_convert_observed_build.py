@@ -96,13 +96,15 @@ def test_the_markers_of_two_logs_with_touching_spans_are_each_log_s() -> None:
     100, 130, ..., 190 s and 200 s - 1 ns; a detection message shares the stamp 30 s. Without
     the markers one message is left, the detection's (the spans merged into [0, 200 s) would
     have marked 99.999... s and 100 s as no log did)."""
-    from aion_cli.log_observed import unmarked_times
+    from aion_cli.log_observed import marker_times, unmarked_times
+    from aion_cli.log_times import TopicTimes
 
     s = 10**9
     a = [0, 30 * s, 60 * s, 90 * s, 100 * s - 1]
     b = [100 * s, 130 * s, 160 * s, 190 * s, 200 * s - 1]
     times = np.array([*b, 30 * s, *a], np.int64)  # any order
-    assert unmarked_times(times, ((0, 100 * s), (100 * s, 200 * s))).tolist() == [30 * s]
+    marks = marker_times(((0, 100 * s), (100 * s, 200 * s)), TopicTimes(()), {})
+    assert unmarked_times(times, marks).tolist() == [30 * s]
 
 
 def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path: Path) -> None:
