@@ -55,7 +55,8 @@ def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, lis
             f"--observed replaces the observed spans {names} {verb} (aion convert --observed); "
             "their empty marker messages count as any message"
         ]
-    each = tuple(sorted({s for spans in recorded.values() for s in spans}))  # as each log's
+    # each log's spans as it marked them (merged): a span two logs record, twice
+    each = tuple(sorted(s for spans in recorded.values() for s in merge_spans(spans)))
     return tuple(merge_spans(each)), each, [
         f"{names} {verb} the spans the sensor was observing "
         "(aion convert --observed): taken as --observed spans, a window only its empty marker "
@@ -65,19 +66,20 @@ def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, lis
 
 def marker_times(marked: Spans, times: TopicTimes, strays: dict[str, I64]) -> I64:
     """The log times of the messages that only mark the ``marked`` spans (sorted, a time once
-    per message): the empty marker messages (each span as its log marked it:
-    :func:`formats.tracks_log.observed_stamps` of it alone, since two logs' touching spans
-    are marked apart), and the scene graphs of ``times`` (``GraphTimes``: the build reads its
-    logs' graphs; ``strays`` left out, as the build drops them) that share a marker's stamp:
-    the one ``aion convert --graph`` writes in a log of spans without detections, at its
-    first marker, is no detection message either (a graph convert writes with a detection
-    message shares the detection's stamp, which then stays)."""
+    per message): the empty marker messages (each log's spans as it marked them:
+    :func:`formats.tracks_log.observed_stamps` of each alone, since two logs' touching spans
+    are marked apart, and a stamp two logs' overlapping spans share is two messages), and
+    the scene graphs of ``times`` (``GraphTimes``: the build reads its logs' graphs;
+    ``strays`` left out, as the build drops them) that share a marker's stamp: the one ``aion
+    convert --graph`` writes in a log of spans without detections, at its first marker, is
+    no detection message either (a graph convert writes with a detection message shares the
+    detection's stamp, which then stays)."""
     from aion_cli.formats.tracks_log import observed_stamps
     from aion_cli.graph_schedule import GraphTimes
 
     if not marked:
         return NO_MARKS
-    marks = np.unique(np.concatenate([observed_stamps([span]) for span in marked]))
+    marks = np.sort(np.concatenate([observed_stamps([span]) for span in marked]))
     if not isinstance(times, GraphTimes):
         return marks
     graphs = times.stream_times(strays)

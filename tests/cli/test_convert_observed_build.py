@@ -139,3 +139,35 @@ def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path:
     at = run("predict", tmp_path / "b.aion", "--time", "2026-11-23 08:05")
     assert at.exit_code == 0
     assert "before the map's data" not in at.stderr
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_two_logs_whose_spans_overlap_mark_their_shared_stamps_twice(
+    two: Path, tmp_path: Path, workers: str
+) -> None:
+    """Nobody on the 25th: log A records 08:00-09:00, log B 08:30-09:30, so each marks
+    08:30, 08:30:30, ... 08:59:30: two empty messages at each of those stamps. Beside the
+    people's log, 08:00-09:30 is 9 windows without a detection, as one log recording
+    08:00-09:30 says. The markers were removed once per stamp, so B's kept 08:30-09:00 as
+    windows with a message: "6 window(s) without a message"."""
+    empty = tmp_path / "none.csv"
+    empty.write_text("")
+    people = tmp_path / "people.mcap"
+    convert_atc(two, people)
+    spans = {"a": ("2026-11-25 08:00..2026-11-25 09:00",),
+             "b": ("2026-11-25 08:30..2026-11-25 09:30",),
+             "ab": ("2026-11-25 08:00..2026-11-25 09:30",)}
+    for name, span in spans.items():
+        convert_atc(empty, tmp_path / f"{name}.mcap", *(a for s in span for a in ("--observed", s)))
+    notes, windows = {}, {}
+    for name, logs in (("two", ("a", "b")), ("one", ("ab",))):
+        built = run_json("build", people, *(tmp_path / f"{k}.mcap" for k in logs), "-o",
+                         tmp_path / f"{name}.aion", "--format", "json", "--workers", workers)
+        notes[name] = [n for n in built["notes"] if n.startswith("--observed: ")]
+        windows[name] = observed_windows(tmp_path / f"{name}.aion")
+    assert notes["two"] == notes["one"] == [
+        "--observed: 9 window(s) without a message taken as observed (1.5 h), up to the last "
+        "log's last message (the time between the logs included)"
+    ]
+    assert windows["two"].max() == pytest.approx(4 - 1 / 30 + 9)
+    assert windows["two"].tobytes() == windows["one"].tobytes()
