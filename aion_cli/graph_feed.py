@@ -426,9 +426,11 @@ def graph_source(
     continued_graph: bool,
     start: int,
     derive: Callable[[], GraphSnapshot],
+    graph_topics_at_once: Callable[[], list[str]],
 ) -> GraphSnapshot | None:
     """Where the map's graph comes from, in this order: ``--graph FILE`` (the log's scene
-    graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`), the
+    graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`;
+    refused when ``graph_topics_at_once`` names topics whose graphs would take turns), the
     continued map's graph (``continued_graph``), ``--derive-graph`` (``derive``: where people
     walk), else none (flows on hash cells). Says which in ``report.graph_source`` (with the
     options that had no effect as notes) and returns the graph added once at ``start``, the
@@ -446,8 +448,8 @@ def graph_source(
         report.graph_layer = str(loaded.nav.layer)
         report.notes.extend(loaded.notes())
         return loaded.snapshot
-    if len(plan.graph) > 1:
-        raise several_graph_topics(plan)
+    if len(plan.graph) > 1 and (clash := graph_topics_at_once()):
+        raise several_graph_topics(clash)
     if plan.graph:
         report.graph_source = "log"
         report.graph_topics = sorted(plan.names("graph"))
@@ -476,13 +478,13 @@ def graph_source(
     return derive()
 
 
-def several_graph_topics(plan: TopicPlan) -> InputError:
-    """The refusal of a log with several scene-graph streams and no ``--graph-topic``: their
-    graphs would take turns as the map's graph (another place set, frame or session with
-    every message), and the map would keep whichever came last."""
-    names = sorted(plan.names("graph"))
+def several_graph_topics(names: list[str]) -> InputError:
+    """The refusal of logs with several scene-graph streams at the same time and no
+    ``--graph-topic``: their graphs would take turns as the map's graph (another place set,
+    frame or session with every message), and the map would keep whichever came last."""
     return InputError(
-        f"the log has {len(names)} scene-graph topics ({', '.join(names)}): their graphs "
-        "would take turns as the map's graph; nothing was built",
+        f"the logs carry {len(names)} scene-graph topics at the same time "
+        f"({', '.join(names)}): their graphs would take turns as the map's graph; nothing "
+        "was built",
         hint=f"name the one to build on with --graph-topic (e.g. --graph-topic {names[0]})",
     )

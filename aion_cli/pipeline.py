@@ -68,6 +68,7 @@ from aion_cli.engine.graph_arrays import file_graph_time
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
+from aion_cli.formats.log_overlaps import topics_at_once
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
@@ -453,12 +454,11 @@ class _Build(StreamStep):
         if start is None:
             start = int(logset.start_ns)
         return graph_source(
-            self.report,
-            plan,
-            self.opts,
+            self.report, plan, self.opts,
             continued_graph=self.previous is not None and self.previous.graph is not None,
             start=start,
             derive=lambda: self._derive(logset, plan, tf, config, start),
+            graph_topics_at_once=lambda: topics_at_once(logset, plan.names("graph")),
         )
 
     def _span(self) -> None:

@@ -60,3 +60,26 @@ def file_messages(
     """The messages on ``topics`` of entry ``index`` of ``logset.files`` alone, log times in
     ``[lo, hi)`` (a reader may yield a few outside: filter), in log-time order."""
     return logset._sources[index].messages(topics, between, None)
+
+
+def topics_at_once(logset: LogSet, topics: set[str]) -> list[str]:
+    """The topics of ``topics`` that run at the same time as another of them: two carried by
+    one file, or by two files whose time ranges (first to last message) meet. Streams of
+    one kind under other names in logs of other times (a ROS 1 bag's and a ROS 2 MCAP's
+    names for Hydra's scene graph, one log after the other) are one stream, read in time
+    order; the same names at once are two streams. Sorted; empty when there is no such."""
+    carried = [
+        {t.topic for t in s.topics.values() if t.topic in topics and t.count}
+        for s in logset._sources
+    ]
+    files = logset.files
+    out: set[str] = set()
+    for i, a in enumerate(files):
+        if len(carried[i]) > 1:
+            out |= carried[i]
+        for j in range(i + 1, len(files)):
+            b = files[j]
+            if carried[i] != carried[j] and carried[i] and carried[j] and \
+                    max(a.start_ns, b.start_ns) <= min(a.end_ns, b.end_ns):
+                out |= carried[i] | carried[j]
+    return sorted(out)

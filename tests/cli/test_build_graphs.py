@@ -141,7 +141,8 @@ def test_two_scene_graph_streams_need_graph_topic(tmp_path: Path) -> None:
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(
         result.stderr,
-        "the log has 2 scene-graph topics (/hydra/backend/dsg, /robot2/hydra/backend/dsg)",
+        "the logs carry 2 scene-graph topics at the same time (/hydra/backend/dsg, "
+        "/robot2/hydra/backend/dsg)",
     )
     assert "hint: name the one to build on with --graph-topic" in result.stderr
     assert not out.exists()
@@ -149,6 +150,35 @@ def test_two_scene_graph_streams_need_graph_topic(tmp_path: Path) -> None:
         "build", log, "-o", out, "--graph-topic", "/robot2/hydra/backend/dsg", "--format", "json"
     )
     assert report["nodes"] == len(FRONTEND)
+
+
+def test_one_stream_under_a_ros1_and_a_ros2_name_in_logs_of_other_days_is_one_stream(
+    tmp_path: Path,
+) -> None:
+    """A ROS 2 MCAP and a ROS 1 bag of the same robot on two days (aion simulate names Hydra's
+    topic /hydra/backend/dsg in one, /hydra_ros_node/backend/dsg in the other; README's
+    `aion build run1.mcap run2.bag`) were refused as two graph streams; they are one stream
+    read in time order, every graph of both logs used. The same two names at the same time
+    are two streams, refused."""
+    logs = {}
+    for name, fmt, day in (("run1.mcap", "mcap", "05"), ("run2.bag", "bag", "06"),
+                           ("run3.bag", "bag", "05")):
+        logs[name] = tmp_path / name
+        made = run("simulate", "-o", logs[name], "--format", fmt, "--days", "0.1", "--start",
+                   f"2026-01-{day}T09:00", "-q")
+        assert made.exit_code == 0, made.stderr
+    graphs = {
+        name: sum(t["count"] for t in run_json("info", log, "--format", "json")["topics"]
+                  if t["type"].endswith("DsgUpdate"))
+        for name, log in logs.items()
+    }
+    report = run_json("build", logs["run1.mcap"], logs["run2.bag"], "-o", tmp_path / "a.aion",
+                      "--format", "json", "--workers", "1")
+    assert report["graph"]["topics"] == ["/hydra/backend/dsg", "/hydra_ros_node/backend/dsg"]
+    assert report["graph"]["messages"] == graphs["run1.mcap"] + graphs["run2.bag"] > 0
+    at_once = run("build", logs["run1.mcap"], logs["run3.bag"], "-o", tmp_path / "b.aion")
+    assert at_once.exit_code == 2, at_once.stderr
+    assert_one_line_error(at_once.stderr, "the logs carry 2 scene-graph topics at the same time")
 
 
 @pytest.mark.parametrize("container", ["mcap", "bag"])
