@@ -28,7 +28,8 @@ A test log that overlaps the map's own data in time is scored all the same, with
 the map has seen those detections (the scores are in-sample); so is one before the map's
 data, with a warning that the map learnt from later logs. One none of whose detections lies
 within ``radius`` of a map entry (another place, or another frame) is scored with a warning,
-and so is one that declares another time zone than the map's (``aion simulate --tz``).
+as is one whose windows hold no map place observed (every activity forecast is 0), and one
+that declares another time zone than the map's (``aion simulate --tz``).
 """
 
 from __future__ import annotations
@@ -283,6 +284,9 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     # (place, window) pairs: every place in a fixed sensor's window, the robot's in its own,
     # each expected to show its rate for the share of the window it was in range
     place, window, share = _pairs(fixed, windows, held.seen, held.seen_exposure, n, recorded)
+    unseen = _no_place_observed(place, fixed, int(truth_w.sum()), state.config.sensor_range)
+    if unseen is not None:
+        result.warnings.append(unseen)
     per_window = {
         "aion": _summed(place, window, share, windows.size, predictor, centres),
         "aion static": np.bincount(window, static[place] * share, minlength=windows.size),
@@ -296,6 +300,27 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
         starts, truth_w, per_window, state.params.calendar.local_ns(starts), observed
     )
     result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
+
+
+def _no_place_observed(
+    place: np.ndarray, fixed: np.ndarray, detections: int, sensor_range: float
+) -> str | None:
+    """A warning when no (place, window) pair was observed (``place`` empty): every model
+    then forecasts 0 in every window and the activity rows are one and the same."""
+    if place.size:
+        return None
+    where = (
+        f"lay within the robot's sensor range ({sensor_range:g} m) in any of the "
+        f"{fixed.size:,} test windows it observed"
+        if not fixed.any()
+        else f"was observed in any of the {fixed.size:,} test windows"
+    )
+    return (
+        f"no place of the map {where}: every model forecasts 0 detections per hour, so "
+        f"the hourly activity rows are alike (the {detections:,} test detections in those "
+        "windows against nothing) and rank nothing; the test logs are of another place or "
+        "frame than the map"
+    )
 
 
 def _pairs(
