@@ -365,6 +365,12 @@ def _split_zone(text: str, zone: Zone) -> tuple[str, Zone]:
         return text, zone  # a weekday, a word of the time: not a zone
 
 
+def is_unix_time(text: str) -> bool:
+    """Whether ``text`` is a UNIX time (``1351036800``, ``@1351036800.5``, ``...ns``): an
+    instant that no time zone changes."""
+    return _RE_UNIX.match(text.strip()) is not None
+
+
 def _names_an_instant(text: str) -> bool:
     """Whether ``text`` is ``now`` or relative to it (``now -12`` is no time at UTC-12)."""
     lowered = text.lower()

@@ -342,13 +342,17 @@ def command(
             f"map whose days and hours of the day are {zone.name}'s without --tz"
         )
     elif tz is None:
-        _note_utc_times(layout, output, start_text is not None, bool(observed_text))
+        from aion_cli.timeparse import is_unix_time
+
+        on_clock = [t for t in observed_text if not all(map(is_unix_time, t.split("..")))]
+        _note_utc_times(layout, output, start_text is not None, bool(on_clock))
 
 
 def _note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> None:
     """Without ``--tz``: a note naming the times read in UTC (``--date``, ``--start``,
-    ``--observed``) and, for a dataset recorded in a known place, its zone and the build that
-    gives local hours; ETH / UCY (recorded in several places) get the first part alone."""
+    ``--observed`` given as clock times, not UNIX ones) and, for a dataset recorded in a known
+    place, its zone and the build that gives local hours; ETH / UCY (recorded in several
+    places) get the first part alone."""
     from aion_cli.cli.console import note
 
     given = [name for name, used in (

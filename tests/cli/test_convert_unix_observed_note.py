@@ -1,0 +1,26 @@
+"""``aion convert --observed`` of UNIX times names no time zone: the note no longer says they
+were read in UTC, while clock times still are."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tests.cli.conftest import run
+from tests.shared_data import real
+
+
+def test_unix_observed_spans_are_not_said_to_be_read_in_utc(tmp_path: Path) -> None:
+    """Before: README's ``--observed 1351036800..1351040400`` got "--observed was read in UTC
+    (give --tz)", though a UNIX time is the same instant in every zone."""
+    csv = real("atc", "atc-1024-9_test.csv")
+    spans = {"unix": "1351036800..1351040400", "clock": "2012-10-24 00:00..2012-10-24 01:00"}
+    said = {}
+    for kind, span in spans.items():
+        out = run("convert", csv, "--layout", "atc", "-o", tmp_path / f"{kind}.mcap",
+                  "--observed", span)  # fmt: skip
+        assert out.exit_code == 0, out.stderr
+        said[kind] = " ".join(out.output.split())
+    for text in said.values():  # both still name the dataset's zone and the build for it
+        assert "atc: the dataset was recorded in Osaka (Asia/Tokyo):" in text
+    assert "--observed was read in UTC" not in said["unix"]
+    assert "--observed was read in UTC (give --tz)" in said["clock"]
