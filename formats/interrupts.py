@@ -1,4 +1,4 @@
-"""Holding Ctrl-C and SIGTERM back for a few statements: :func:`interrupts_held`.
+"""Holding Ctrl-C, SIGTERM and SIGHUP back for a few statements: :func:`interrupts_held`.
 
 A temporary file is created and then named in two steps, a C library initialises, a file is
 renamed into place and recorded as such: an interrupt between two such steps would leave
@@ -15,12 +15,16 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
-_HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# SIGHUP too: the command line makes it unwind like SIGTERM (aion_cli/cli/entry.py), so it
+# interrupts a block as they do (it left the temporary map of a build behind)
+_HELD_SIGNALS = tuple(
+    getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
 
 
 @contextlib.contextmanager
 def interrupts_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back for the block; they are delivered (and raise) right after.
+    """Hold SIGINT, SIGTERM and SIGHUP back for the block; delivered (and raising) right after.
 
     Creating a temporary file or folder and learning its name are two steps; an interrupt
     between them would leave something nobody removes. A C library's initialisation (open3d's
