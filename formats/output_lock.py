@@ -11,6 +11,7 @@ through :func:`formats.mapfile_target.map_lock`, logs through
 (the log and its truth), exports through :func:`aion_cli.exports.write_export`, reports
 through :func:`aion_cli.report.writer.write_report`.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -21,6 +22,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from aion_cli.errors import InputError, OutputLockedError
+from aion_cli.formats.interrupts import interrupts_held
 
 STALE_UNREADABLE_LOCK_S = 10.0
 """An empty lock file older than this is treated as stale (a crash between its creation and
@@ -101,7 +103,6 @@ def _try_create_lock(lock: Path) -> bool:
     return True
 
 
-
 def lock_of(path: str | os.PathLike[str], into: bool = False) -> Path:
     """The lock file of the output ``path``: :func:`lock_path` beside it, or, for a folder
     written into (``into``) that exists, :data:`INSIDE` it (``export -o .`` must not need
@@ -141,38 +142,42 @@ def output_lock(
     lock = lock_of(path, into)
     if lock.parent != Path(path):  # beside it: a missing folder is the output's error
         check_output_folder(path, error=failed)  # (its mkdir -p hint), not the lock's
+    acquired = False
+    held = ""
     try:
-        acquired = _try_create_lock(lock)
-        if not acquired and _lock_is_stale(lock):
-            with contextlib.suppress(FileNotFoundError):
-                lock.unlink()
-            acquired = _try_create_lock(lock)
-    except OSError as exc:
-        if not isinstance(exc, FileExistsError):
-            raise failed(
-                f"cannot create lock file {lock}: {exc.strerror or exc}",
-                hint=f"check free disk space and write permissions on the {what}'s folder",
-            ) from exc
-        acquired = False
-    if not acquired:
-        holder = ""
-        with contextlib.suppress(OSError):
-            holder = lock.read_text(encoding="utf-8", errors="replace").strip()
-        words = holder.split()
-        if words and not words[0].isdigit():  # not "<pid> <host>": someone's own file
+        try:
+            with interrupts_held():  # created and known to be ours (removed below), or neither
+                acquired = _try_create_lock(lock)
+            if not acquired and _lock_is_stale(lock):
+                with contextlib.suppress(FileNotFoundError):
+                    lock.unlink()
+                with interrupts_held():
+                    acquired = _try_create_lock(lock)
+        except OSError as exc:
+            if not isinstance(exc, FileExistsError):
+                raise failed(
+                    f"cannot create lock file {lock}: {exc.strerror or exc}",
+                    hint=f"check free disk space and write permissions on the {what}'s folder",
+                ) from exc
+        if not acquired:
+            holder = ""
+            with contextlib.suppress(OSError):
+                holder = lock.read_text(encoding="utf-8", errors="replace").strip()
+            words = holder.split()
+            if words and not words[0].isdigit():  # not "<pid> <host>": someone's own file
+                raise locked(
+                    f"{what} {Path(path)}: {lock} is in the way, a file that is not aion's lock",
+                    hint=f"aion locks an output with a file of that name: move {lock} away",
+                )
             raise locked(
-                f"{what} {Path(path)}: {lock} is in the way, a file that is not aion's lock",
-                hint=f"aion locks an output with a file of that name: move {lock} away",
+                f"{what} {Path(path)} is being written by another process ({holder or 'unknown'})",
+                hint=f"wait for it to finish; if no aion is running, delete {lock}",
             )
-        raise locked(
-            f"{what} {Path(path)} is being written by another process ({holder or 'unknown'})",
-            hint=f"wait for it to finish; if no aion is running, delete {lock}",
-        )
-    held = str(lock.resolve())
-    _HELD.add(held)
-    try:
+        held = str(lock.resolve())
+        _HELD.add(held)
         yield lock
     finally:
-        _HELD.discard(held)
-        with contextlib.suppress(OSError):
-            lock.unlink()
+        if acquired:  # an interrupt anywhere after the lock was made removes it too
+            _HELD.discard(held)
+            with contextlib.suppress(OSError):
+                lock.unlink()

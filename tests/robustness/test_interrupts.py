@@ -272,3 +272,35 @@ def test_a_signal_as_the_temporary_map_file_is_made_leaves_no_file(
     assert sent[0].startswith(".m.aion.")
     assert target.read_bytes() == old
     assert sorted(os.listdir(tmp_path)) == ["m.aion"]
+
+
+def test_a_ctrl_c_as_the_map_lock_is_made_leaves_no_lock(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Before: a Ctrl-C right as ``m.aion.lock`` was created (before its pid was written and
+    the ``try`` that removes it entered) left an empty lock behind, and the next build of the
+    map was refused as "being written by another process (unknown)" for 10 s. Now the lock
+    goes with the interrupt and the old map stays byte for byte."""
+    import numpy as np
+
+    from aion_cli.formats.mapfile import write_map
+
+    target = office.copy_map(tmp_path / "m.aion")
+    old = target.read_bytes()
+    real = os.open
+    made: list[str] = []
+
+    def signalled(path: Any, *args: Any, **kwargs: Any) -> int:
+        fd = real(path, *args, **kwargs)
+        if str(path).endswith(".lock"):
+            made.append(Path(path).name)
+            signal.raise_signal(signal.SIGINT)  # right after the lock exists
+        return fd
+
+    monkeypatch.setattr(os, "open", signalled)
+    with pytest.raises(KeyboardInterrupt):
+        write_map(target, {"x": np.arange(4)}, {})
+    monkeypatch.undo()
+    assert made == ["m.aion.lock"]
+    assert target.read_bytes() == old
+    assert sorted(os.listdir(tmp_path)) == ["m.aion"]
