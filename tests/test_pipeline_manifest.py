@@ -17,7 +17,7 @@ import pytest
 
 from aion_cli.cli.info_map import describe_map
 from aion_cli.engine.types import DetectionBatch
-from aion_cli.formats.mapfile import read_manifest
+from aion_cli.formats.mapfile import read_manifest, read_map
 from aion_cli.formats.tracks_log import tracks_to_log
 from aion_cli.manifest import Manifest
 from aion_cli.pipeline import BuildOptions, build_map
@@ -128,19 +128,24 @@ def test_the_values_are_those_the_build_wrote_before(maps: dict[str, Any]) -> No
 
 def test_info_shows_what_it_showed_before(maps: dict[str, Any]) -> None:
     """Everything the manifest showed, in the same order; the graph's rooms and buildings and
-    the layer its places came from after it, and the warnings of what could not be read (none
-    for these maps)."""
+    the layer its places came from after it, the entries and the places without any, and the
+    warnings of what could not be read (none for these maps)."""
     for report in (maps["first"], maps["second"], maps["zoned"]):
         shown = describe_map(report.output)
         assert shown.pop("warnings") == []
         rooms = shown.pop("rooms")
         buildings = shown.pop("buildings", [])
         layer = shown.pop("nav_layer", None)
+        entries, without = shown.pop("entries"), shown.pop("places_without_data")
         assert shown == _old_describe(report.output)
         assert list(shown) == list(_old_describe(report.output))
         assert isinstance(rooms, list)
         assert isinstance(buildings, list)
         assert layer is None or isinstance(layer, str)
+        # the entry counts came after it: one per row of the map's entries, and the places
+        # without any
+        assert entries == len(read_map(report.output)[0]["entry_kind"])
+        assert without >= 0
 
 
 def test_a_log_the_continued_map_holds_is_refused_by_its_typed_inputs(

@@ -20,7 +20,7 @@ DATA_KEYED = {
     # objects whose keys are data (topics, reasons, roles, families, parameters), not fields
     "detection_decoding", "detections_by_topic", "dropped", "log_times_dropped",
     "dsg_versions", "frames_without_tf", "tf_roots", "roles", "config", "families", "counts",
-    "last_build", "skipped", "aion",
+    "last_build", "skipped", "aion", "declared_zones",
 }
 
 
