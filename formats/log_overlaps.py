@@ -37,16 +37,13 @@ def find_overlaps(logset: LogSet, topics: set[str], at_least_ns: int) -> list[Ov
     whole): two logs of one moment on the same topic (two robots at once, two sensors or
     splits of one recording, or one recording twice: a copy, an excerpt, a merged file), in
     file order. Whether they hold the same people is for their messages to tell."""
-    carried = [
-        sorted({t.topic for t in s.topics.values() if t.topic in topics and t.count})
-        for s in logset._sources
-    ]
+    carried = _carried(logset, topics)
     files = logset.files
     out: list[Overlap] = []
     for i, a in enumerate(files):
         for j in range(i + 1, len(files)):
             b = files[j]
-            shared = sorted(set(carried[i]) & set(carried[j]))
+            shared = sorted(carried[i] & carried[j])
             lo, hi = max(a.start_ns, b.start_ns), min(a.end_ns, b.end_ns)
             shorter = min(a.end_ns - a.start_ns, b.end_ns - b.start_ns)
             if shared and hi > lo and hi - lo >= min(at_least_ns, shorter / 2):
@@ -68,10 +65,7 @@ def topics_at_once(logset: LogSet, topics: set[str]) -> list[str]:
     one kind under other names in logs of other times (a ROS 1 bag's and a ROS 2 MCAP's
     names for Hydra's scene graph, one log after the other) are one stream, read in time
     order; the same names at once are two streams. Sorted; empty when there is no such."""
-    carried = [
-        {t.topic for t in s.topics.values() if t.topic in topics and t.count}
-        for s in logset._sources
-    ]
+    carried = _carried(logset, topics)
     files = logset.files
     out: set[str] = set()
     for i, a in enumerate(files):
@@ -83,3 +77,13 @@ def topics_at_once(logset: LogSet, topics: set[str]) -> list[str]:
                     max(a.start_ns, b.start_ns) <= min(a.end_ns, b.end_ns):
                 out |= carried[i] | carried[j]
     return sorted(out)
+
+
+def _carried(logset: LogSet, topics: set[str]) -> list[frozenset[str]]:
+    """The topics of ``topics`` each entry of ``logset.files`` holds messages of (a topic its
+    index lists with no message is not carried), in file order: what :func:`find_overlaps`
+    and :func:`topics_at_once` compare, so that both read a file's streams alike."""
+    return [
+        frozenset(t.topic for t in s.topics.values() if t.topic in topics and t.count)
+        for s in logset._sources
+    ]
