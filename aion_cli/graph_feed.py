@@ -206,16 +206,21 @@ class GraphFeed:
 
         return thin_graphs(self, messages, graph_topics, progress, logset)
 
-    def is_whole(self, logset: Any, msg: RawMessage) -> bool:
+    def is_whole(self, logset: Any, msg: RawMessage) -> tuple[bool, RawMessage]:
         """Whether the stream applies ``msg`` as a whole graph: not a partial update
-        (:meth:`payload`); a message that cannot be read answers True (the stream counts it)."""
+        (:meth:`payload`); a message that cannot be read answers True (the stream counts it).
+        With ``msg`` as the stream is to pass it on: with the fields read of it
+        (:class:`~formats.dsg_update_fast.FieldsRead`), so that its decoding reads none again."""
+        from aion_cli.formats.dsg_update_fast import FieldsRead, update_fields
+
         try:
+            msg = FieldsRead.of(msg, update_fields(logset, msg, self._fast_layout))
             self.payload(logset, msg)
         except PartialGraphError:
-            return False
+            return False, msg
         except Exception:
-            return True
-        return True
+            return True, msg
+        return True, msg
 
     def has_agents(self, logset: Any, messages: Iterable[RawMessage]) -> bool:
         """Whether the first of the scene graphs ``messages`` that decodes carries robot

@@ -30,7 +30,8 @@ def thin_graphs(
     With ``logset``, a used graph that is a partial update does not leave its period without
     a graph: the next whole graph logged in the same window (``feed.window_ns``; a shard of a
     parallel build starts at a window, so one pass and shards choose alike) is used too. Only
-    the used graphs and those looked at for a stand-in are read for their flag."""
+    the used graphs and those looked at for a stand-in are read for their flag, once: each
+    goes on with what was read of it (:meth:`GraphFeed.is_whole`), which its decoding uses."""
     used = feed.used
     if used is None or bool(used.all()):
         yield from messages
@@ -49,11 +50,14 @@ def thin_graphs(
         if msg.topic in graph_topics:
             keep = k >= len(flags) or flags[k]
             k += 1
+            whole: bool | None = None  # not read yet
             if keep:
                 wanted = None
             elif wanted is not None and not isinstance(msg.data, Unread):
                 same = window(msg) == wanted
-                keep = same and feed.is_whole(logset, msg)
+                if same:
+                    whole, msg = feed.is_whole(logset, msg)
+                keep = bool(whole)
                 if keep or not same:
                     wanted = None
             if not keep:
@@ -64,6 +68,8 @@ def thin_graphs(
                 raise RuntimeError(
                     f"a scene graph at {msg.log_time_ns} ns was left unread but is used"
                 )
-            if logset is not None and not feed.is_whole(logset, msg):
-                wanted = window(msg)
+            if logset is not None and whole is None:
+                whole, msg = feed.is_whole(logset, msg)  # msg: with the fields read of it
+                if not whole:
+                    wanted = window(msg)
         yield msg

@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from aion_cli.formats.raw import normalize_msgtype
+from aion_cli.formats.raw import RawMessage, normalize_msgtype
 
 #: The message type this module reads (normalised spelling).
 DSG_UPDATE = "hydra_msgs/msg/DsgUpdate"
@@ -43,6 +43,22 @@ class DsgUpdateFields:
     nanosec: int
     payload: memoryview
     full_update: bool = True
+
+
+@dataclass(frozen=True)
+class FieldsRead(RawMessage):
+    """A DsgUpdate message with the fields :func:`update_fields` read of it, which it then
+    gives without reading the message again: the build's stream passes it on from the check
+    of a used graph (whole or partial update, ``aion_cli.graph_thin``) to the graph's
+    decoding, so that a message the generic decoder reads (a whole rosbags deserialisation)
+    is read once."""
+
+    fields: DsgUpdateFields
+
+    @classmethod
+    def of(cls, msg: RawMessage, fields: DsgUpdateFields) -> FieldsRead:
+        """``msg`` with ``fields``, what :func:`update_fields` read of it."""
+        return cls(msg.topic, msg.msgtype, msg.log_time_ns, msg.data, msg.encoding, fields)
 
 
 def _u32(data: memoryview, p: int) -> int:
@@ -133,9 +149,12 @@ def update_fields(
     """A DsgUpdate message's stamp, payload and ``full_update``, read straight from its bytes
     (:func:`read_dsg_update`) where the log defines the type in that layout (checked once per
     (topic, type, encoding) and kept in ``layouts``), else by the log's generic decoder
-    (``logset.decode``), which also reads the messages the fast reader declines."""
+    (``logset.decode``), which also reads the messages the fast reader declines. A
+    :class:`FieldsRead` message gives the fields read before."""
     import numpy as np
 
+    if isinstance(msg, FieldsRead):  # read already, on its way through the stream
+        return msg.fields
     key = (msg.topic, msg.msgtype, msg.encoding)
     fast = layouts.get(key)
     if fast is None:

@@ -338,3 +338,50 @@ def test_the_api_takes_the_period_version_and_batch_size_as_the_cli_does(
         aion.build(stream_log, tmp_path / "x.aion", graph_period=-1)
     with pytest.raises(InputError, match="batch_size must be at least 1"):
         aion.build(stream_log, tmp_path / "x.aion", batch_size=0)
+
+
+@pytest.mark.parametrize("reader", ["fast", "generic"])
+def test_a_used_graphs_header_is_read_once(
+    reader: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With --graph-period the stream reads a used graph's header to tell a partial update
+    (whose period the next whole graph of its window takes) from a whole graph; its decoding
+    read the header again, and a stand-in's was read three times: with the generic decoder
+    (a log's own DsgUpdate layout) each read deserialises the whole message. Now what the
+    first read found goes on with the message. The office log with partial updates at 45-s
+    periods (tests/cli/test_build_graphs.py): 19 graphs applied and 14 partial updates
+    skipped, each of these 33 messages read once; the topic's first message once more, to
+    learn whether its writer sets full_update (GraphFeed._uses_flag)."""
+    from collections import Counter
+
+    from aion_cli.formats import dsg_update_fast
+    from aion_cli.formats.logs import LogSet
+    from tests.cli.logdata import PLACES, T0, write_office_log
+
+    log = tmp_path / "partial.mcap"
+    write_office_log(log, "mcap", partial_places={k: PLACES[k] for k in (0, 1)})
+    reads: Counter[int] = Counter()  # header reads per graph, by its time (s after T0)
+    fast, generic = dsg_update_fast.read_dsg_update, LogSet.decode
+
+    def fast_counted(data: bytes, encoding: str) -> Any:
+        got = fast(data, encoding)
+        assert got is not None  # the office log's layout: every header read here
+        reads[(got.sec * S + got.nanosec - T0) // S] += 1
+        return got
+
+    def generic_counted(self: LogSet, msg: Any) -> Any:
+        if msg.msgtype == dsg_update_fast.DSG_UPDATE:
+            reads[(msg.log_time_ns - T0) // S] += 1
+        return generic(self, msg)
+
+    if reader == "fast":
+        monkeypatch.setattr(dsg_update_fast, "read_dsg_update", fast_counted)
+    else:  # as for a log whose own DsgUpdate definition has another layout
+        monkeypatch.setattr(dsg_update_fast, "read_dsg_update", lambda data, encoding: None)
+        monkeypatch.setattr(LogSet, "decode", generic_counted)
+    report = build_log(log, tmp_path / "m.aion", graph_period_ns=45 * S)
+    assert report.graph_messages == 19
+    assert any(n.startswith("14 partial scene-graph update(s)") for n in report.notes)
+    assert len(reads) == 19 + 14
+    assert reads[0] == 2  # the first graph: once more for the flag
+    assert sum(reads.values()) == len(reads) + 1  # every other one once
