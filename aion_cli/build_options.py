@@ -5,14 +5,13 @@ from __future__ import annotations
 
 import os
 import re
-import shlex
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.errors import ConfigError, InputError, LogFormatError
+from aion_cli.errors import ConfigError, InputError, LogFormatError, path_word
 from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS
 
 if TYPE_CHECKING:
@@ -177,8 +176,8 @@ def check_not_an_input(out: Path, logs: tuple[Path, ...]) -> None:
     if input_kind(out) == "map":
         raise LogFormatError(
             f"{out} is an aion map, not a log",
-            hint=f"extend it with `aion build LOG --map {shlex.quote(str(out))}`, query it with "
-            f"`aion predict {shlex.quote(str(out))}`",
+            hint=f"extend it with `aion build LOG --map {path_word(out)}`, query it with "
+            f"`aion predict {path_word(out)}`",
         )
     raise InputError(
         f"the map would overwrite the log {out}",

@@ -7,6 +7,8 @@ a hint. :class:`InputError` and its subclasses are the user's to fix (exit code 
 
 from __future__ import annotations
 
+import shlex
+from os import PathLike
 from typing import Any
 
 
@@ -32,6 +34,14 @@ def _rebuild_error(cls: type[AionError], args: tuple[Any, ...], fields: dict[str
     error.args = args
     error.__dict__.update(fields)
     return error
+
+
+def path_word(path: str | PathLike[str]) -> str:
+    """``path`` as one word of a command a hint or note tells the user to run, quoted as a
+    shell needs it (``'my logs/day 1.mcap'``; a plain path is unchanged). Give it the path as
+    the user gave it, not its bare name: the command then works from where they ran aion
+    (a name alone names a file of the current folder)."""
+    return shlex.quote(str(path))
 
 
 class MissingSystemLibraryError(AionError):

@@ -29,7 +29,6 @@ none where the times come as arrays from a log's index (:meth:`TopicTimes.add_st
 
 from __future__ import annotations
 
-import shlex
 from array import array
 from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
@@ -41,7 +40,7 @@ import numpy as np
 from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
 from aion_cli.engine.types import I64, BoolA
 from aion_cli.engine.windows import iso
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, path_word
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -413,8 +412,8 @@ def check_after_open(
     if clocks is not None:
         raise clocks
     # paths quoted as a shell needs them (a space in a folder's name)
-    words = [*map(shlex.quote, map_inputs[:3]), *(["..."] if len(map_inputs) > 3 else [])]
-    listed = " ".join([*words, *(shlex.quote(str(p)) for p in logs[:3])])
+    words = [*map(path_word, map_inputs[:3]), *(["..."] if len(map_inputs) > 3 else [])]
+    listed = " ".join([*words, *map(path_word, logs[:3])])
     raise InputError(
         f"the {what}s of {', '.join(p.name for p in logs)} start at "
         f"{iso(int(t_ns.min()))}, but {map_name} has already closed every "

@@ -7,10 +7,9 @@ files; otherwise the first bytes decide, :func:`formats.rosbag2_storage.sniff`) 
 from __future__ import annotations
 
 import re
-import shlex
 from pathlib import Path
 
-from aion_cli.errors import LogFormatError
+from aion_cli.errors import LogFormatError, path_word
 from aion_cli.formats.raw import check_regular_input
 from aion_cli.listing import first_few
 
@@ -198,7 +197,7 @@ def _what_else(path: Path) -> str | None:
             f"{truth.group(1)}: build from the log alone (`aion evaluate` reads the truth)"
         )
     kind = input_kind(path)
-    word = shlex.quote(name)  # the name in a command to paste
+    word = path_word(path)  # the path in a command to paste
     if kind == "map":
         return (
             f"{name} is an aion map, not a log: extend it with `aion build LOG --map {word}`, "
@@ -210,7 +209,7 @@ def _what_else(path: Path) -> str | None:
     if guess is not None:
         return (
             f"{name} looks like a tracks file in {guess.describe()}: make it a log first, "
-            f"`aion convert {word} --layout {guess.layout} -o {shlex.quote(path.stem + '.mcap')}`"
+            f"`aion convert {word} --layout {guess.layout} -o {path_word(path.stem + '.mcap')}`"
         )
     return None
 

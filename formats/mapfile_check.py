@@ -11,13 +11,12 @@ from __future__ import annotations
 import json
 import os
 import re
-import shlex
 import zipfile
 import zlib
 from pathlib import Path
 from typing import Any
 
-from aion_cli.errors import MapCorruptError, MapFileError
+from aion_cli.errors import MapCorruptError, MapFileError, path_word
 from aion_cli.formats.mapfile_format import (
     DEFAULT_MAX_MEMBERS,
     DEFAULT_MAX_RATIO,
@@ -50,7 +49,7 @@ def _what_it_is(path: Path) -> str | None:
     from aion_cli.formats.scene_mcap import is_scene_mcap
 
     name = path.name
-    word = shlex.quote(name)  # the name in a command to paste
+    word = path_word(path)  # the path in a command to paste
     kind = input_kind(path)
     if kind == "log" and is_scene_mcap(path):  # not a log: aion export's own
         return f"{name} is a scene aion exported from a map: give that map (.aion) instead"

@@ -38,14 +38,13 @@ import contextlib
 import hashlib
 import os
 import re
-import shlex
 import shutil
 import stat
 import tempfile
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from aion_cli.errors import InputError
+from aion_cli.errors import InputError, path_word
 from aion_cli.formats.committed import note_committed
 from aion_cli.formats.interrupts import interrupts_held
 
@@ -180,7 +179,7 @@ def check_output_folder(
         )
     raise error(
         f"cannot write {named or path}: the folder {folder} does not exist",
-        hint=f"create it first (mkdir -p {shlex.quote(str(folder))}) or choose another path",
+        hint=f"create it first (mkdir -p {path_word(folder)}) or choose another path",
     )
 
 

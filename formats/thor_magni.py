@@ -14,6 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import path_word
 from aion_cli.formats.track_csv import differenced
 from aion_cli.formats.track_parse import _seconds_to_ns, check_encoding
 from aion_cli.formats.track_tail import TAIL_BYTES
@@ -122,8 +123,8 @@ def _magni_problem(path: Path, need: int, detail: str) -> TracksFormatError:
             except UnicodeDecodeError:
                 return TracksFormatError(
                     f"{path}: line {lineno} is not UTF-8 text: {raw[:60]!r}",
-                    hint=f"convert it first, e.g. iconv -f LATIN1 -t UTF-8 {path.name} > "
-                    f"{path.stem}-utf8{path.suffix}",
+                    hint=f"convert it first, e.g. iconv -f LATIN1 -t UTF-8 {path_word(path)} > "
+                    f"{path_word(f'{path.stem}-utf8{path.suffix}')}",
                 )
             got = len(_fields(line.strip()))
             if lineno == 1:

@@ -21,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.types import F64, I64
+from aion_cli.errors import path_word
 from aion_cli.formats.track_types import LAYOUTS, NoTrackRowsError, TracksFormatError
 
 
@@ -191,8 +192,8 @@ def check_encoding(path: Path) -> None:
     if name is not None:
         raise TracksFormatError(
             f"{path}: the file is {name} text; aion reads tracks files as UTF-8 (or ASCII)",
-            hint=f"convert it first: iconv -f {name} -t UTF-8 {path.name} > "
-            f"{path.stem}-utf8{path.suffix}",
+            hint=f"convert it first: iconv -f {name} -t UTF-8 {path_word(path)} > "
+            f"{path_word(f'{path.stem}-utf8{path.suffix}')}",
         )
 
 

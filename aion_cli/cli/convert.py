@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shlex
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +17,7 @@ from aion_cli.cli.convert_checks import (
     container_for,
 )
 from aion_cli.cli.output import AionCommand, counted, markup_safe
+from aion_cli.errors import path_word
 
 EPILOG = """\b
 Examples:
@@ -338,7 +338,7 @@ def command(
     if tz is not None and zone.name != "UTC":
         # the log carries the zone: aion build takes it unless its own --tz says otherwise
         note(
-            f"the log carries the zone {zone.name}: aion build {shlex.quote(output.name)} makes a "
+            f"the log carries the zone {zone.name}: aion build {path_word(output)} makes a "
             f"map whose days and hours of the day are {zone.name}'s without --tz"
         )
     elif tz is None:
@@ -363,7 +363,7 @@ def _note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> N
         place, home = HOME_ZONES[layout]
         note(
             f"{layout}: the dataset was recorded in {place} ({home}):{read} aion build takes "
-            f"a map's days and hours in UTC unless told: aion build {shlex.quote(output.name)} "
+            f"a map's days and hours in UTC unless told: aion build {path_word(output)} "
             f"--tz {home}"
         )
     elif given and layout in RELATIVE_LAYOUTS:

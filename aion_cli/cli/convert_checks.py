@@ -4,7 +4,6 @@ whether TRACKS is a tracks file at all (not a folder, a log, a map or a scene gr
 
 from __future__ import annotations
 
-import shlex
 from pathlib import Path
 
 #: layouts with frame numbers, and their frame rate when --fps is not given
@@ -24,14 +23,15 @@ def check_tracks_input(tracks: Path) -> None:
     log, or a folder of files), a log, an aion map or a saved scene graph, each named with
     where it goes. (A folder was "tracks file not found: data" and a scene graph "the file looks
     cut short".)"""
-    from aion_cli.errors import InputError
+    from aion_cli.errors import InputError, path_word
     from aion_cli.formats.input_kind import input_kind
 
+    word = path_word(tracks)  # the path in a command to paste
     if tracks.is_dir():
         if (tracks / "metadata.yaml").is_file():
             raise InputError(
                 f"{tracks} is a rosbag2 log, not a tracks file",
-                hint=f"build a map from it: aion build {shlex.quote(str(tracks))} -o MAP.aion",
+                hint=f"build a map from it: aion build {word} -o MAP.aion",
             )
         raise InputError(
             f"{tracks} is a folder, not a tracks file",
@@ -40,7 +40,6 @@ def check_tracks_input(tracks: Path) -> None:
     if not tracks.is_file():
         raise InputError(f"tracks file not found: {tracks}", hint="check the path")
     kind = input_kind(tracks)
-    word = shlex.quote(tracks.name)  # the name in a command to paste
     if kind == "log":
         raise InputError(
             f"{tracks.name} is a log, not a tracks file",

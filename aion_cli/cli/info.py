@@ -227,11 +227,11 @@ def _apart(kinds: dict[str, list[Path]]) -> str:
     """The hint of a mix of kinds: which path is of which kind (the first of each; an empty
     kind: the rest), and one ``aion info`` of each kind's paths (printed through
     :func:`aion_cli.cli.errors.one_line`, which makes control characters visible)."""
-    import shlex
+    from aion_cli.errors import path_word
 
     named = [(kind, paths) for kind, paths in kinds.items() if paths]
     said = ", ".join(f"{paths[0]} {'is a ' + kind if kind else 'is not'}" for kind, paths in named)
-    runs = "; ".join("aion info " + " ".join(shlex.quote(str(p)) for p in paths)
+    runs = "; ".join("aion info " + " ".join(map(path_word, paths))
                      for _, paths in named)
     return f"{said}: describe each kind apart ({runs})"
 

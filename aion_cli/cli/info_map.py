@@ -5,11 +5,11 @@ Split from :mod:`aion_cli.cli.info` (logs and graph files); the command there ca
 
 from __future__ import annotations
 
-import shlex
 from pathlib import Path
 from typing import Any
 
 from aion_cli.cli.output import human_size
+from aion_cli.errors import path_word
 from aion_cli.listing import first_few
 
 
@@ -78,7 +78,7 @@ def _hierarchy(path: Path) -> dict[str, Any]:
             "warnings": [
                 f"{path.name}: aion cannot read this map's state and scene graph ({exc}): "
                 f"its graph layer, rooms and buildings are not shown, and queries refuse the "
-                f"map; `aion info {shlex.quote(path.name)} --verify` checks every member"
+                f"map; `aion info {path_word(path)} --verify` checks every member"
             ],
         }
     if graph is None:
@@ -184,7 +184,7 @@ def print_map(report: dict[str, Any]) -> None:
             "part map",
             safe(f"aion build --part: {held:,} closed day{'' if held == 1 else 's'} held "
                  f"unscored, and the last day open, for a merge; aion merge "
-                 f"{Path(str(report['map'])).name} [more parts] -o MAP.aion scores them into a "
+                 f"{path_word(str(report['map']))} [more parts] -o MAP.aion scores them into a "
                  "map"),
         )
     families = report.get("families") or {}

@@ -36,21 +36,21 @@ def test_a_log_given_as_a_map_and_a_map_as_a_log_are_named_as_one_word(tmp_path:
     given_as_map = run("predict", log, "--time", "2026-01-05 10:00")
     assert given_as_map.exit_code == 2, given_as_map.stderr
     assert _words(given_as_map.stderr, "aion build") == [
-        "aion", "build", "my log.mcap", "-o", "MAP.aion"
+        "aion", "build", str(log), "-o", "MAP.aion"
     ]
     as_tracks = run("convert", log, "--layout", "thor", "-o", tmp_path / "x.mcap")
     assert as_tracks.exit_code == 2, as_tracks.stderr
     assert _words(as_tracks.stderr, "aion build") == [
-        "aion", "build", "my log.mcap", "-o", "MAP.aion"
+        "aion", "build", str(log), "-o", "MAP.aion"
     ]
     built = tmp_path / "my map.aion"
     run_json("build", log, "-o", built, "--format", "json")
     given_as_log = run("build", built, "-o", tmp_path / "other.aion")
     assert given_as_log.exit_code == 2, given_as_log.stderr
     assert _words(given_as_log.stderr, "aion build LOG") == [
-        "aion", "build", "LOG", "--map", "my map.aion"
+        "aion", "build", "LOG", "--map", str(built)
     ]
-    assert _words(given_as_log.stderr, "aion predict") == ["aion", "predict", "my map.aion"]
+    assert _words(given_as_log.stderr, "aion predict") == ["aion", "predict", str(built)]
 
 
 def test_converts_build_hint_names_an_output_with_a_space_as_one_word(tmp_path: Path) -> None:
@@ -62,7 +62,7 @@ def test_converts_build_hint_names_an_output_with_a_space_as_one_word(tmp_path: 
     assert result.exit_code == 0, result.stderr
     said = " ".join(result.stderr.split())
     assert _words(said.split("unless told: ")[1], "aion build") == [
-        "aion", "build", "c d.mcap", "--tz", "Europe/Stockholm"
+        "aion", "build", str(tmp_path / "c d.mcap"), "--tz", "Europe/Stockholm"
     ]
 
 

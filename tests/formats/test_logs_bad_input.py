@@ -5,6 +5,7 @@ garbage payload). Reading well-formed logs: ``test_logs.py``."""
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 import pytest
@@ -103,7 +104,7 @@ def test_other_aion_inputs_given_as_a_log_are_named(tmp_path: Path) -> None:
     for path, hint in (
         (made, "week.aion is an aion map, not a log: extend it with `aion build LOG --map"),
         (graph, "dsg.json looks like a scene-graph file: give it to `aion build` with --graph"),
-        (tracks, "`aion convert run.csv --layout thor -o run.mcap`"),
+        (tracks, f"`aion convert {shlex.quote(str(tracks))} --layout thor -o run.mcap`"),
     ):
         with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
             open_logs([path])
@@ -291,4 +292,4 @@ def test_a_file_of_no_format_read_with_log_format_says_why_that_reader_cannot(
     tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n1000,1,0,0,0,0,1\n")
     with pytest.raises(LogFormatError, match="cannot tell the log format") as info:
         open_logs([tracks], fmt="mcap")
-    assert "aion convert tracks.csv" in (info.value.hint or "")
+    assert f"aion convert {shlex.quote(str(tracks))}" in (info.value.hint or "")

@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import shlex
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -295,8 +296,9 @@ def test_a_log_or_a_graph_given_as_a_map_is_named(tmp_path: Path) -> None:
     other = tmp_path / "notes.txt"
     other.write_text("a shopping list\n")
     for path, hint in (
-        (log, "run.mcap is a log: build a map from it first, `aion build run.mcap -o MAP.aion`"),
-        (graph, "`aion build LOG --graph dsg.json -o MAP.aion`"),
+        (log, "run.mcap is a log: build a map from it first, "
+              f"`aion build {shlex.quote(str(log))} -o MAP.aion`"),
+        (graph, f"`aion build LOG --graph {shlex.quote(str(graph))} -o MAP.aion`"),
         (other, "truncated or damaged"),
     ):
         with pytest.raises(MapFileError, match="is not a readable aion map") as info:

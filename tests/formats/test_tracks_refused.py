@@ -5,6 +5,7 @@ file of another layout named by the layout it looks like (``formats.track_csv``,
 from __future__ import annotations
 
 import re
+import shlex
 from pathlib import Path
 
 import pytest
@@ -195,7 +196,9 @@ def test_a_utf16_file_is_named_as_such(
     result = run("convert", path, "--layout", layout, "-o", tmp_path / "w.mcap")
     assert result.exit_code == 2
     assert_one_error(result.stderr, f"the file is {name} text")
-    assert f"iconv -f {name} -t UTF-8 wide.csv" in result.stderr.splitlines()[1]
+    assert f"iconv -f {name} -t UTF-8 {shlex.quote(str(path))} > wide-utf8.csv" in (
+        result.stderr.splitlines()[1]
+    )
     path.write_bytes(path.read_bytes().decode(encoding).encode())  # what iconv makes of it
     assert len(ft.read_tracks(path, layout)) == 20
 
