@@ -122,8 +122,14 @@ class DetectionAdapter:
         """Decode through rosbags objects only (the reference the fast path is tested
         against, and the fallback)."""
         rows = Rows()
+        begin = getattr(self.extract, "begin", None)
+        if begin is not None:  # an extractor that reads across messages (lone Markers)
+            begin()
         for i, m in enumerate(messages):
             self.extract(self.deserialize(m, i), i, rows)
+        flush = getattr(self.extract, "flush", None)
+        if flush is not None:
+            flush(rows)
         return _from_rows(rows, messages)
 
     def deserialize(self, m: RawMessage, index: int = 0) -> Any:

@@ -82,3 +82,47 @@ def test_suggest_mapping_offers_no_id_that_numbers_the_markers(tmp_path: Path) -
         log = _marker_bag(tmp_path / f"m{ids[0]}.bag", ids)
         text = run("info", log, "--suggest-mapping", "/people_markers").stdout
         assert ('id = "id"' in text) is offered, text
+
+
+def test_lone_markers_of_joint_leg_tracker_count_each_person_once(tmp_path: Path) -> None:
+    """``joint_leg_tracker.py`` publishes five lone Markers per person per scan on one topic
+    (tests/formats/joint_leg_tracker.py). The build used every one of them but the labels
+    (four detections per person per scan, each with a count for track id); it now uses one
+    per person per scan, links them (the ids count markers) and says what it left out."""
+    from aion_cli.formats.writers import LogWriter
+    from tests.formats.joint_leg_tracker import lone_markers, walking_scans
+
+    scans = walking_scans(60, 1_700_000_400 * 1_000_000_000)
+    log = tmp_path / "lone.bag"
+    with LogWriter(log, "bag") as w:
+        for i, m in enumerate(lone_markers(scans)):
+            t = m["header"]["stamp"]["sec"] * 1_000_000_000 + m["header"]["stamp"]["nanosec"]
+            w.write("/visualization_marker", "visualization_msgs/msg/Marker", m, t + 1000 * i)
+    people = sum(len(s.people) for s in scans)  # 60 of A, 30 of B
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--detections-topic",
+                      "/visualization_marker", "--workers", "1", "--format", "json")  # fmt: skip
+    assert report["detections"]["used"] == people == 90
+    assert report["detections"]["dropped"] == {
+        "marker_same_place": 3 * people, "marker_text": people,
+        "marker_delete": 5 * 30 + 20, "marker_not_person": 20,
+    }  # fmt: skip
+    assert report["headings"]["track"] == 0
+
+
+def test_real_marker_arrays_give_one_detection_per_leg(tmp_path: Path) -> None:
+    """Independently of aion: per message of positive_2's MarkerArray, the distinct x, y of
+    its markers (rosbags reads them); the build uses exactly that many."""
+    from rosbags.highlevel import AnyReader
+
+    log = real("logs", "leg_tracker", "positive_2_extracted.bag")
+    places = 0
+    with AnyReader([log]) as reader:
+        conns = [c for c in reader.connections if c.topic == MARKERS]
+        for c, _, data in reader.messages(connections=conns):
+            msg = reader.deserialize(data, c.msgtype)
+            places += len({(m.pose.position.x, m.pose.position.y) for m in msg.markers})
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--map-frame", "laser_frame",
+                      "--detections-topic", MARKERS, "--workers", "1",
+                      "--format", "json")  # fmt: skip
+    assert places > 83  # more than one leg in some messages
+    assert report["detections"]["used"] == places

@@ -258,7 +258,8 @@ def test_markers_of_one_person_count_once(ros: int) -> None:
 def test_markers_numbered_from_zero_in_a_message_are_no_track_ids(ros: int) -> None:
     """A MarkerArray whose markers of a namespace are numbered 0..k-1 (leg_tracker's
     ``m.id = i``) counts its markers: no track ids, per namespace; ids that skip a number are
-    track ids, and so is a lone Marker's id 0 (one marker says nothing of counting)."""
+    track ids, and so is the id 0 of a lone Marker without stamp (one marker says nothing of
+    counting; a stamped one is a cycle of one marker: tests/formats/test_marker_cycles.py)."""
 
     def marker(ns: str, mid: int, x: float, action: int = 0) -> dict[str, Any]:
         return {"header": header(4, 0, "map"), "ns": ns, "id": mid, "type": 2,
@@ -274,7 +275,8 @@ def test_markers_numbered_from_zero_in_a_message_are_no_track_ids(ros: int) -> N
     )
     one = decode("visualization_msgs/msg/MarkerArray", {"markers": [marker("LEGS", 0, 1.0)]}, ros)
     np.testing.assert_array_equal(one.track_id, [-1])
-    alone = decode("visualization_msgs/msg/Marker", marker("LEGS", 0, 1.0), ros)
+    alone = decode("visualization_msgs/msg/Marker", {**marker("LEGS", 0, 1.0),
+                   "header": header(0, 0, "map")}, ros)  # fmt: skip
     np.testing.assert_array_equal(alone.track_id, [hash_id("LEGS/0")])
 
 
