@@ -223,7 +223,8 @@ def topic_counts(
     reason: the feeder's, plus the Mapper's ``mapper_drops``, topic x ``DROP_REASONS``) into
     the report's ``detections_by_topic``; a topic that lost more than :data:`LOSS_WARN_SHARE`
     of the detections read from it is a warning with the counts (a build that loses most of a
-    sensor must not look like a clean one) — unless the build used none at all
+    sensor must not look like a clean one; what a filter leaves out by choice, a class or a
+    marker that draws no person, is no loss) — unless the build used none at all
     (``total_used``), which :func:`check_usable` makes an error."""
     from aion_cli.engine.state import DROP_REASONS
 
@@ -239,7 +240,7 @@ def topic_counts(
             "used": n_used,
             "dropped": dict(sorted(dropped.items())),
         }
-        lost = read - n_used
+        lost = sum(v for k, v in dropped.items() if k in _DETECTION_DROPS)
         if read and lost > LOSS_WARN_SHARE * read and total_used > 0:
             reasons = ", ".join(
                 f"{k} {v:,}" for k, v in sorted(dropped.items()) if k in _DETECTION_DROPS
