@@ -11,7 +11,6 @@ from aion_cli.formats.detections.builtin import (
     SPECS,
     AdapterOptions,
     Detection3DExtractor,
-    MarkerExtractor,
     ZedExtractor,
 )
 from aion_cli.formats.detections.fast import (
@@ -21,6 +20,7 @@ from aion_cli.formats.detections.fast import (
     decode_pose_array,
     decode_tracked_persons,
 )
+from aion_cli.formats.detections.markers import MarkerExtractor
 from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:

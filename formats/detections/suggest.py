@@ -360,10 +360,10 @@ def refuse_service_events(topic: str, msgtype: str) -> None:
 def counts_items(sample: list[Any], array: str, id_path: str) -> bool:
     """Whether ``id_path`` of the ``array`` elements numbers them 0, 1, ..., k-1 in every
     message of ``sample`` that has elements (per ``ns`` when the elements have one, as
-    the build's MarkerArray reader takes it: :func:`.builtin.is_numbering`): ids that count
+    the build's MarkerArray reader takes it: :func:`.markers.is_numbering`): ids that count
     a message's items rather than name people. False without such a message, or when a
     path does not read."""
-    from aion_cli.formats.detections.builtin import is_numbering
+    from aion_cli.formats.detections.markers import is_numbering
     from aion_cli.formats.detections.paths import FieldPath
 
     get = FieldPath.parse(id_path).get
