@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
+from itertools import islice
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
@@ -424,6 +425,10 @@ def log_adapters(
                 f"no people-detection adapter for {msgtype} on {topic!r}",
                 hint="map it with --detections-mapping FILE",
             )
+        if getattr(found.extract, "learn", None) is not None:  # the Marker reader's id rule
+            from aion_cli.formats.detections.markers import ID_SAMPLE, learn_ids
+
+            learn_ids(found, islice(logset.messages([topic]), ID_SAMPLE), encoding)
         return found
 
     adapters = {}
@@ -431,6 +436,9 @@ def log_adapters(
     for info in topics:
         key = (info.topic, info.msgtype, info.encoding)
         adapter = adapters[key] = factory(*key)
+        said = getattr(adapter.extract, "describe", None)
+        if said is not None and said():
+            notes.append(f"{info.topic}: {said()}")
         if adapter.layout_differs:
             notes.append(
                 f"{info.topic}: the log's definition of {info.msgtype} differs from the layout "

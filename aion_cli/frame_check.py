@@ -41,6 +41,9 @@ class FrameReport:
     roots: dict[str, str] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     no_robot: str | None = None
+    read_as: dict[str, str] = field(default_factory=dict)
+    """Per detection topic, how its reader takes it, where that needs saying (a Marker topic:
+    :meth:`~aion_cli.formats.detections.markers.MarkerExtractor.describe`)."""
     empty_messages: int = 0
     """Messages of the detection samples that held no detection (``DetectionCounts.
     count_empty``): a tracker that publishes them is not silent when nobody is there."""
@@ -84,7 +87,8 @@ def detection_frames(
 ) -> dict[str, set[str]]:
     """The frames of each detection topic's first :data:`DETECTION_SAMPLE` messages, decoded
     as the build decodes them (with ``mappings``, the ``--detections-mapping`` topics); the
-    messages among them that held no detection are counted into ``report``."""
+    messages among them that held no detection are counted into ``report``, and how a
+    Marker topic is read (``report.read_as``)."""
     from aion_cli.detection_counts import DetectionCounts
     from aion_cli.detection_feed import log_adapters
     from aion_cli.errors import AionError
@@ -100,6 +104,9 @@ def detection_frames(
     for info in plan.detections:
         sample = samples.get(info.topic, [])
         adapter = adapters.get((info.topic, info.msgtype, info.encoding))
+        said = getattr(adapter.extract, "describe", None) if adapter is not None else None
+        if report is not None and said is not None and said():
+            report.read_as[info.topic] = said()
         if adapter is None or not sample:
             continue
         try:

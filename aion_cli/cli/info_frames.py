@@ -15,12 +15,15 @@ def add_frames(
     report: dict[str, Any], logset: Any, plan: Any, mappings: list[Any], robot_poses_elsewhere: bool
 ) -> None:
     """``frames_without_tf``, ``tf_roots`` and the TF warnings into ``report`` (and, for a fixed
-    sensor, how many of the detection messages sampled held nobody); the warning on
+    sensor, how many of the detection messages sampled held nobody; how a Marker topic is
+    read, into ``plan``'s reasons: the topic's ``why``); the warning on
     a robot without ``base_link`` only when no scene graph gives robot poses
     (``robot_poses_elsewhere``: the build would observe with those)."""
     from aion_cli.frame_check import unconnected_frames
 
     frames = unconnected_frames(logset, plan, mappings)
+    for topic, text in frames.read_as.items():  # how a Marker topic is read: in its `why`
+        plan.reasons[topic] = f"{plan.reasons.get(topic, 'detections')}; {text}"
     report["frames_without_tf"] = frames.apart
     report["tf_roots"] = frames.roots
     report["warnings"].extend(frames.warnings)

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Iterable, Sequence
+from typing import Any, Literal
 
 import numpy as np
 
@@ -32,6 +32,13 @@ _ORIGIN = (0.0, 0.0, 0.0)
 #: clutter: ``if track.is_person: continue``) under ``objects_tracked`` on the same topic as
 #: its people (``People_tracked``).
 NOT_PEOPLE_NS = frozenset({"objects_tracked"})
+#: Messages of a Marker(Array) topic, from its start, whose ids decide per namespace whether
+#: they count the markers or name people (:meth:`MarkerExtractor.learn`, :func:`ids_verdict`).
+ID_SAMPLE = 200
+#: Lone Markers one scan holds at most: a publisher that gives every Marker one stamp would
+#: otherwise make one scan of the whole topic (its markers kept, each place compared with
+#: all before); past this many a scan starts afresh.
+MAX_SCAN = 10_000
 
 
 def _rotate(q: tuple[float, float, float, float], p: np.ndarray) -> np.ndarray:
@@ -66,14 +73,20 @@ class MarkerExtractor:
     ``extract_positive_training_clusters``' ``m.id = i``), so id 0 is whoever comes first
     and moves from person to person. Such markers get no track id (they are linked into
     tracks, as a PoseArray's poses are); ids that skip a number are taken as track ids.
+    Where a log is at hand, the topic's first :data:`ID_SAMPLE` messages decide this per
+    namespace for every message (:meth:`learn`, :func:`ids_verdict`): a namespace that
+    counts in some message (0..k-1, k >= 2) counts in those of one marker too, one that
+    names people somewhere (a gap) keeps its ids 0..k-1 too, and where the only id is 0, in
+    every message, a lone id 0 is one person's track id 0. A namespace the sample cannot
+    tell is judged message by message.
 
     Lone Markers: ``joint_leg_tracker.py`` publishes those five markers per person as
     separate ``Marker`` messages on one topic, all stamped with the scan's stamp (``now``), ids
     counted up from 0 per scan, then DELETEs for the ids the last scan used beyond them. So
     the lone Markers of consecutive messages with the same non-zero stamp and frame are one
     *cycle*, read as one MarkerArray (one detection per person, numbering judged over the
-    cycle, as in an array: a cycle of one marker with id 0 numbers it). A lone Marker with a
-    zero stamp is read alone (no cycle can be told), its id a track id.
+    cycle, as in an array). A lone Marker with a zero stamp is read alone (no cycle can be
+    told), its id a track id unless the sample says the namespace counts.
     A cycle cut by the end of a decode call goes on in the next call of the same extractor
     (:meth:`begin` / :meth:`flush`): the earlier part's places and ids count for the rest."""
 
@@ -85,6 +98,63 @@ class MarkerExtractor:
         self._key: tuple[int, str] | None = None
         self._read: list[Any] = []
         self._pending: list[tuple[int, Any]] = []
+        #: per namespace learnt from a sample of the topic (:meth:`learn`, :func:`ids_verdict`)
+        self.verdicts: dict[str, Verdict] = {}
+        #: whether the sample was of lone Markers read a scan at a time, and the namespaces
+        #: of :data:`NOT_PEOPLE_NS` it held (for :meth:`describe`)
+        self.cycles = False
+        self.not_people: list[str] = []
+
+    def learn(self, sample: Sequence[Any]) -> None:
+        """Learn from ``sample`` (the topic's first messages, deserialized, in log order)
+        per namespace whether its ids count markers or name people (:func:`ids_verdict` of
+        its ids in each message, or scan of lone Markers)."""
+        groups: dict[str, list[list[int]]] = {}
+        self.cycles = any(not hasattr(m, "markers") and stamp_ns(m.header.stamp) for m in sample)
+        scans = _messages_or_scans(sample)
+        if self.cycles and len(scans) > 1:
+            scans = scans[:-1]  # the sample may end inside a scan: a part of its ids
+        for markers in scans:
+            per_ns: dict[str, list[int]] = {}
+            for mk in markers:
+                per_ns.setdefault(mk.ns, []).append(int(mk.id))
+            for ns, ids in per_ns.items():
+                groups.setdefault(ns, []).append(ids)
+        self.not_people = sorted(NOT_PEOPLE_NS & groups.keys())
+        for ns in self.not_people:  # dropped whatever their ids
+            del groups[ns]
+        self.verdicts = {}
+        for ns, got in groups.items():
+            verdict = ids_verdict(got)
+            if verdict is not None:
+                self.verdicts[ns] = verdict
+
+    def describe(self) -> str | None:
+        """What :meth:`learn` found, as a sentence of a note (None when there is nothing to
+        say: a sample of MarkerArrays whose namespaces it could not tell)."""
+        parts = []
+        if self.cycles:
+            parts.append(
+                "lone Markers read a scan at a time (the messages of one stamp and frame as "
+                "one MarkerArray: one detection per person per scan)"
+            )
+        said = {
+            "counts": "count the markers (no track ids: linked)",
+            "names": "are track ids",
+            "one": "are only 0, one person's track id",
+        }
+        ids = []
+        for verdict, text in said.items():
+            named = sorted(ns for ns, v in self.verdicts.items() if v == verdict)
+            if named:
+                ids.append(f"of {_ns_list(named)} {text}")
+        if ids:
+            parts.append(f"in its first {ID_SAMPLE} messages, the ids " + ", those ".join(ids))
+        if self.not_people:
+            parts.append(f"markers of {_ns_list(self.not_people)} are no people (leg_tracker's)")
+        if not parts:
+            return None
+        return "; ".join(parts)
 
     def begin(self) -> None:
         """Start a decode call from the state the last completed call left (:attr:`carry`);
@@ -112,6 +182,9 @@ class MarkerExtractor:
             self._markers([msg], [owner], rows, judge=False)
             return
         self._pending.append((owner, msg))
+        if len(self._pending) + len(self._read) >= MAX_SCAN:
+            self._read_pending(rows)
+            self._read = []
 
     def _read_pending(self, rows: Rows) -> None:
         """Read the held lone Markers of the current cycle, after its earlier ones."""
@@ -139,7 +212,7 @@ class MarkerExtractor:
             for drop, p, _ in self._places(mk)
             if not drop
         }
-        numbered = _numbered_namespaces([*earlier, *markers]) if judge else set()
+        numbered = _numbered_namespaces([*earlier, *markers], self.verdicts, judge)
         for mk, owner in zip(markers, owners, strict=True):
             for drop, p, listed in self._places(mk):
                 if drop:
@@ -182,16 +255,100 @@ class MarkerExtractor:
         return [("", pos, False)]
 
 
-def _numbered_namespaces(markers: Any) -> set[str]:
-    """The namespaces whose markers in this message have the ids 0, 1, ..., k-1: a count of
-    the message's markers (see :class:`MarkerExtractor`), not track ids."""
+def _numbered_namespaces(
+    markers: Sequence[Any], verdicts: dict[str, Verdict], judge: bool = True
+) -> set[str]:
+    """The namespaces of ``markers`` (one message, or scan) whose ids count the markers, not
+    people (see :class:`MarkerExtractor`): as ``verdicts`` says (:meth:`MarkerExtractor.
+    learn`), else, when ``judge``, those whose ids here are 0, 1, ..., k-1."""
     ids: dict[str, list[int]] = {}
     for mk in markers:
         ids.setdefault(mk.ns, []).append(int(mk.id))
-    return {ns for ns, got in ids.items() if is_numbering(got)}
+    out = set()
+    for ns, got in ids.items():
+        verdict = verdicts.get(ns)
+        # "one": a lone id 0 is a track id, ids 0..k-1 (k >= 2) still a count
+        judged = judge and is_numbering(got) and (verdict is None or len(got) > 1)
+        if verdict == "counts" or (verdict != "names" and judged):
+            out.add(ns)
+    return out
+
+
+def _messages_or_scans(sample: Sequence[Any]) -> list[list[Any]]:
+    """The markers of each message of ``sample`` (MarkerArrays), or of each scan (lone
+    Markers: consecutive messages with one non-zero stamp and frame; one with a zero stamp
+    is left out, as it is read alone)."""
+    out: list[list[Any]] = []
+    last = None
+    for msg in sample:
+        if hasattr(msg, "markers"):
+            out.append(list(msg.markers))
+            continue
+        stamp = stamp_ns(msg.header.stamp)
+        key = (stamp, msg.header.frame_id)
+        if not stamp:
+            last = None
+        elif key == last:
+            out[-1].append(msg)
+        else:
+            out.append([msg])
+            last = key
+    return out
+
+
+def _ns_list(names: list[str]) -> str:
+    return ", ".join(f"{n!r}" for n in names)
+
+
+Verdict = Literal["counts", "names", "one"]
+"""What a sample of a topic says of one namespace's ids (:func:`ids_verdict`)."""
+
+
+def ids_verdict(groups: Sequence[list[int]]) -> Verdict | None:
+    """What one namespace's ids are, from its ids in each message (or scan) of a sample of
+    the topic (``groups``); None when the sample cannot tell:
+
+    - ``"names"``: ids that are not 0, 1, ..., k-1 in some message: people's ids (a count
+      has no gap), in every message;
+    - else ``"counts"``: ids 0, 1, ..., k-1 with k >= 2 in some message: a count
+      (leg_tracker's), in every message, those of one marker too;
+    - else ``"one"``: the one id 0 in every message, in two or more: a lone id 0 is one
+      person's track id 0 (a real track id 0 is common, and read as a count it lost its id:
+      the rows were linked instead). A message with ids 0..k-1, k >= 2, later on is still
+      judged a count, so a count that had one marker throughout the sample keeps its later
+      counts of two or more from becoming track ids;
+    - one message of the one id 0: cannot tell."""
+    if any(not is_numbering(ids) for ids in groups):
+        return "names"
+    if any(len(ids) > 1 for ids in groups):
+        return "counts"
+    return "one" if len(groups) > 1 else None
 
 
 def is_numbering(ids: list[int]) -> bool:
     """Whether the ids of one message (one namespace) are 0, 1, ..., k-1 in any order: they
     count the message's items, not people (see :class:`MarkerExtractor`)."""
     return sorted(ids) == list(range(len(ids)))
+
+
+def learn_ids(adapter: Any, messages: Iterable[Any], encoding: str) -> None:
+    """Let ``adapter``'s Marker reader learn its topic's id rule (:meth:`MarkerExtractor.
+    learn`) from ``messages`` (RawMessages: the topic's first :data:`ID_SAMPLE`, from the
+    start of the logs whichever part of them a build reads, so that every part of a
+    parallel build judges alike); those of another type or encoding, or that do not decode
+    (the build counts them), are left out. Nothing for another adapter."""
+    from aion_cli.errors import MessageDecodeError
+    from aion_cli.formats.raw import normalize_msgtype
+
+    extract = adapter.extract
+    if not isinstance(extract, MarkerExtractor):
+        return
+    sample = []
+    for m in messages:
+        if m.encoding != encoding or normalize_msgtype(m.msgtype) != adapter.msgtype:
+            continue
+        try:
+            sample.append(adapter.deserialize(m))
+        except MessageDecodeError:
+            continue
+    extract.learn(sample)

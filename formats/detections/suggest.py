@@ -358,30 +358,30 @@ def refuse_service_events(topic: str, msgtype: str) -> None:
 
 
 def counts_items(sample: list[Any], array: str, id_path: str) -> bool:
-    """Whether ``id_path`` of the ``array`` elements numbers them 0, 1, ..., k-1 in every
-    message of ``sample`` that has elements (per ``ns`` when the elements have one, as
-    the build's MarkerArray reader takes it: :func:`.markers.is_numbering`): ids that count
-    a message's items rather than name people. False without such a message, or when a
-    path does not read."""
-    from aion_cli.formats.detections.markers import is_numbering
+    """Whether ``id_path`` of the ``array`` elements counts them, 0, 1, ..., k-1 in each
+    message, rather than naming people, as the build's Marker reader judges it from a
+    sample (per ``ns`` when the elements have one: :func:`.markers.ids_verdict`): every
+    namespace of ``sample`` counts (some message with ids 0..k-1, k >= 2, none with a gap;
+    the one id 0 in every message is one person's id). False without such a namespace, or
+    when a path does not read."""
+    from aion_cli.formats.detections.markers import ids_verdict
     from aion_cli.formats.detections.paths import FieldPath
 
     get = FieldPath.parse(id_path).get
-    seen = False
+    groups: dict[str, list[list[int]]] = {}
     for msg in sample:
-        groups: dict[str, list[int]] = {}
+        per_ns: dict[str, list[int]] = {}
         try:
             for item in getattr(msg, array):
                 value = get(item)
                 if not isinstance(value, int):
                     return False
-                groups.setdefault(str(getattr(item, "ns", "")), []).append(value)
+                per_ns.setdefault(str(getattr(item, "ns", "")), []).append(value)
         except (ConfigError, AttributeError, TypeError):
             return False
-        if groups and not all(is_numbering(ids) for ids in groups.values()):
-            return False
-        seen = seen or bool(groups)
-    return seen
+        for ns, ids in per_ns.items():
+            groups.setdefault(ns, []).append(ids)
+    return bool(groups) and all(ids_verdict(g) == "counts" for g in groups.values())
 
 
 def suggest_mapping(

@@ -129,3 +129,55 @@ def test_real_marker_arrays_give_one_detection_per_leg(tmp_path: Path) -> None:
                       "--format", "json")  # fmt: skip
     assert places > 83  # more than one leg in some messages
     assert report["detections"]["used"] == places
+
+
+def _one_person(path: Path, marker_id: int) -> Path:
+    """A MarkerArray on /people_markers holding one SPHERE of id ``marker_id`` per message:
+    one person walking a circle of 5 m at 0.5 m/s, 10 messages a second for 60 s."""
+    import math
+
+    from aion_cli.formats.writers import LogWriter
+
+    t0 = 1_700_000_400 * 1_000_000_000
+    with LogWriter(path, "bag") as w:
+        for k in range(600):
+            t = t0 + k * 100_000_000
+            a = k * 0.01
+            marker = {"header": {"stamp": {"sec": t // 10**9, "nanosec": t % 10**9},
+                                 "frame_id": "map"},
+                      "ns": "people", "id": marker_id, "type": 2,
+                      "pose": {"position": {"x": 5 * math.cos(a), "y": 5 * math.sin(a)},
+                               "orientation": {"w": 1.0}}}  # fmt: skip
+            w.write("/people_markers", "visualization_msgs/msg/MarkerArray",
+                    {"markers": [marker]}, t)  # fmt: skip
+    return path
+
+
+def test_one_person_whose_track_id_is_0_builds_the_map_of_any_other_id(tmp_path: Path) -> None:
+    """A MarkerArray of one marker with id 0 was read as a count of one (no track id): the
+    person's rows were linked, and the map differed from the same walk with id 7 (600 linked
+    headings against 598 track headings; 8 of the map's arrays differed). The topic's first
+    messages show only id 0, one person's: now it is a track id and the two maps are equal
+    (the manifest's inputs and created aside); info and build say how the ids are read, and
+    --suggest-mapping offers the id."""
+    import zipfile
+
+    maps = {}
+    for marker_id in (0, 7):
+        log = _one_person(tmp_path / f"one{marker_id}.bag", marker_id)
+        out = maps[marker_id] = tmp_path / f"one{marker_id}.aion"
+        report = run_json("build", log, "-o", out, "--workers", "1", "--format", "json")
+        assert report["headings"]["track"] == 598, report["headings"]
+        assert report["headings"]["linked"] == 0
+    a, b = zipfile.ZipFile(maps[0]), zipfile.ZipFile(maps[7])
+    assert sorted(a.namelist()) == sorted(b.namelist())
+    for name in a.namelist():
+        if name != "manifest.json":
+            assert a.read(name) == b.read(name), name
+    log = tmp_path / "one0.bag"
+    said = "the ids of 'people' are only 0, one person's track id"
+    again = run_json("build", log, "-o", tmp_path / "again.aion", "--format", "json")
+    assert f"/people_markers: in its first 200 messages, {said}" in again["notes"]
+    (topic,) = run_json("info", log, "--format", "json")["topics"]
+    assert topic["why"].endswith(said)
+    assert 'id = "id"' in run("info", log, "--suggest-mapping", "/people_markers").stdout

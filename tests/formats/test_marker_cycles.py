@@ -108,3 +108,41 @@ def test_cycles_are_judged_as_arrays(ros: int) -> None:
         ("people", 0), ("people", 1), ("people", 3), ("people", 8)]] + [-1, hash_id("legs/2")]
     np.testing.assert_array_equal(d.track_id, ids)
     np.testing.assert_array_equal(d.t_ns[:2], [5 * S, 6 * S])
+
+
+@ROS
+def test_the_id_rule_is_learnt_from_whole_scans(ros: int) -> None:
+    """A build learns a namespace's id rule from the topic's first messages: the scans of
+    lone Markers in them, but the last, which the sample may cut (here in a scan whose
+    Markers came in reverse order: its first three ids, 9, 8 and 7, look like track ids).
+    ``objects_tracked`` is no people and is not judged."""
+    from aion_cli.formats.detections.markers import learn_ids
+
+    scans = walking_scans(3, T0)
+    markers = lone_markers(scans)
+    last = [m for m in markers if m["header"]["stamp"]["nanosec"] == scans[2].stamp_ns % S]
+    sample = _raws(markers[: len(markers) - len(last)] + last[::-1][:3], ros)
+    adapter = adapter_for(MARKER)
+    assert adapter is not None
+    learn_ids(adapter, sample, sample[0].encoding)
+    extract: Any = adapter.extract
+    assert extract.verdicts == {"People_tracked": "counts"}
+    assert extract.describe() == (
+        "lone Markers read a scan at a time (the messages of one stamp and frame as one "
+        "MarkerArray: one detection per person per scan); in its first 200 messages, the ids "
+        "of 'People_tracked' count the markers (no track ids: linked); markers of "
+        "'objects_tracked' are no people (leg_tracker's)"
+    )
+
+
+def test_a_scan_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Lone Markers that all share one stamp are not kept without end: past ``MAX_SCAN`` a
+    scan starts afresh (here 4: the fifth marker at a place taken counts again)."""
+    from aion_cli.formats.detections import markers
+
+    monkeypatch.setattr(markers, "MAX_SCAN", 4)
+    one_place = [{"header": {"stamp": {"sec": 3}, "frame_id": "map"}, "ns": "p", "id": i,
+                  "type": 2, "pose": {"position": {"x": 1.0}}} for i in range(6)]  # fmt: skip
+    d = adapter_for(MARKER).decode(_raws(one_place, 2))  # type: ignore[union-attr]
+    assert len(d) == 2
+    assert d.filtered == {"marker_same_place": 4}
