@@ -60,7 +60,9 @@ class _McapSource(_McapIndexed):
     (CRC mismatch, unknown compression, over the size cap, damaged) is skipped alone with a
     warning naming it and the messages lost. Without a summary, or when it disagrees with the
     data (chunks or channels it leaves out, statistics that do not match), the file is read
-    linearly, chunk by chunk, up to the first record whose framing is broken.
+    linearly, chunk by chunk, up to the first record whose framing is broken; so is a file
+    with messages outside chunks beside chunked ones (valid MCAP, which chunk indexes cannot
+    list), without a warning.
     """
 
     def __init__(
@@ -124,7 +126,9 @@ class _McapSource(_McapIndexed):
                 # lead to the first's)
                 f.seek(self._size - len(_MCAP_MAGIC) - 20)
                 self._check_end(f, int.from_bytes(f.read(8), "little"))
-        distrust = check is not None and (bool(check.problems) or check.unsure)
+        distrust = check is not None and (
+            bool(check.problems) or check.unsure or check.bare_messages > 0
+        )
         if summary is None or check is None or distrust:
             channels, schemas, counts, start, end = self._scan()
             if summary is not None and check is not None:
@@ -245,9 +249,10 @@ class _McapSource(_McapIndexed):
                 f"chunks themselves instead (linear scan): {total:,} messages"
             )
         elif total != stats.message_count:
+            held = "its data section holds" if check.bare_messages else "its chunks hold"
             self._warn(
                 f"{self.path.name}: its statistics count {stats.message_count:,} messages but "
-                f"its chunks hold {total:,}; aion read the chunks themselves (linear scan)"
+                f"{held} {total:,}; aion read the chunks themselves (linear scan)"
             )
 
     # -- reading ---------------------------------------------------------------------------

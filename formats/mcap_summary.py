@@ -42,12 +42,17 @@ class SummaryCheck:
     those chunks alone are skipped. ``counts``: messages per channel of each chunk (by chunk
     offset) from its message index records. ``unsure``: the statistics count no message but
     some chunk without message indexes holds records (only reading it can tell).
+    ``bare_messages``: Message records outside chunks. The MCAP specification allows them
+    beside chunks, and chunk indexes cannot list them, so reading through the chunk indexes
+    would miss them: the reader reads the data section instead, which is no fault of the
+    file (not a problem, no warning).
     """
 
     problems: list[str] = field(default_factory=list)
     bad_chunks: dict[int, str] = field(default_factory=dict)
     counts: dict[int, dict[int, int]] = field(default_factory=dict)
     unsure: bool = False
+    bare_messages: int = 0
     # chunks whose record states a wrong length but agrees with its index otherwise: read
     # with the index's length (offset -> chunk length); ``notes`` says so
     lengths: dict[int, int] = field(default_factory=dict)
@@ -154,8 +159,7 @@ def _compare(
             f"{len(unindexed)} chunk(s) are not in its chunk indexes (first at byte "
             f"{unindexed[0]})"
         )
-    if bare_messages:
-        problems.append(f"{bare_messages} message(s) outside chunks are not indexed")
+    check.bare_messages = bare_messages
     for offset, index in sorted(by_offset.items()):
         head = heads.get(offset)
         if head is None:

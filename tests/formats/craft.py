@@ -387,19 +387,24 @@ def _msgdata(t_ns: int, payload: bytes) -> bytes:
 def craft_bag(
     topic: BagTopic,
     chunks: list[list[tuple[int, bytes]]],
-    compression: str = "none",
+    compression: str | list[str] = "none",
     *,
     declared_sizes: list[int | None] | None = None,
     bomb: tuple[int, int] | None = None,
+    info_order: list[int] | None = None,
 ) -> bytes:
     """A ROS 1 bag of one connection whose messages are in ``chunks`` (lists of ``(log time,
-    payload)``), compressed with ``compression`` (``none`` or ``bz2``; any other name stores
-    the records as they are under that name). ``declared_sizes``: per chunk, a ``size``
-    field other than the truth (None: the truth). ``bomb = (chunk, zeros)``: that chunk also
-    holds one more message of ``zeros`` zero bytes, compressed piece by piece."""
+    payload)``), compressed with ``compression`` (``none``, ``bz2`` or ``lz4``, or a list of
+    those, one per chunk; any other name stores the records as they are under that name).
+    ``declared_sizes``: per chunk, a ``size`` field other than the truth (None: the truth).
+    ``bomb = (chunk, zeros)``: that chunk also holds one more message of ``zeros`` zero bytes,
+    compressed piece by piece. ``info_order``: the chunks' order in the index (default: file
+    order). An empty chunk has no index records, and a chunk info of no connection at the
+    time the chunk before it ends."""
     out = bytearray(BAG_MAGIC) + bytes(4096)  # the bag header record, written last
     infos = []
     for k, msgs in enumerate(chunks):
+        packing = compression if isinstance(compression, str) else compression[k]
         parts = [_connection(0, topic)]
         pos = len(parts[0])
         offsets = []
@@ -415,7 +420,12 @@ def craft_bag(
             tail = _msgdata(t_bomb, b"")[:-4] + _u32(extra)
             offsets.append((t_bomb, pos))
             pos += len(tail) + extra
-        if compression == "bz2":
+        if packing == "lz4":
+            import lz4.frame
+
+            assert not extra, "bombs are bz2"
+            data = bytearray(lz4.frame.compress(b"".join(parts)))
+        elif packing == "bz2":
             comp = bz2.BZ2Compressor(9)
             data = bytearray()
             for part in parts:
@@ -433,17 +443,20 @@ def craft_bag(
             size = int(declared_sizes[k])  # type: ignore[arg-type]
         chunk_pos = len(out)
         out += bag_record(
-            {"op": b"\x05", "compression": compression.encode(), "size": _u32(size)}, bytes(data)
+            {"op": b"\x05", "compression": packing.encode(), "size": _u32(size)}, bytes(data)
         )
-        index = b"".join(_time(t) + _u32(off) for t, off in offsets)
-        out += bag_record(
-            {"op": b"\x04", "ver": _u32(1), "conn": _u32(0), "count": _u32(len(offsets))}, index
-        )
-        times = [t for t, _ in offsets]
+        if offsets:
+            index = b"".join(_time(t) + _u32(off) for t, off in offsets)
+            out += bag_record(
+                {"op": b"\x04", "ver": _u32(1), "conn": _u32(0), "count": _u32(len(offsets))},
+                index,
+            )
+        times = [t for t, _ in offsets] or [infos[-1][2] if infos else 0]
         infos.append((chunk_pos, min(times), max(times), len(offsets)))
     index_pos = len(out)
     out += _connection(0, topic)
-    for chunk_pos, start, end, count in infos:
+    for k in info_order if info_order is not None else range(len(infos)):
+        chunk_pos, start, end, count = infos[k]
         out += bag_record(
             {
                 "op": b"\x06",
@@ -451,9 +464,9 @@ def craft_bag(
                 "chunk_pos": _u64(chunk_pos),
                 "start_time": _time(start),
                 "end_time": _time(end),
-                "count": _u32(1),
+                "count": _u32(1 if count else 0),
             },
-            _u32(0) + _u32(count),
+            _u32(0) + _u32(count) if count else b"",
         )
     fields = {
         "op": b"\x03",
