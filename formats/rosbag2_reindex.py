@@ -124,8 +124,9 @@ class _ReindexedSqliteSource(_Source):
                 ).fetchone()
                 for storage in self._storages
             )
-        packed = () if self._zstd is None else ("zstd (message)",) if self._zstd else ("none",)
-        self.file = LogFile(path, "rosbag2-sqlite3", size, start, end, total, packed)
+        self.file = LogFile(
+            path, "rosbag2-sqlite3", size, start, end, total, _packing(originals, self._zstd)
+        )
 
     def messages(
         self,
@@ -284,6 +285,22 @@ def _open_salvaging(
             temps.setdefault(exc.file, []).append(tmp)
             salvaged.append(warning)
             sqlite[k] = (exc.file, plain)
+
+
+def _packing(originals: list[Path], payloads: bool | None) -> tuple[str, ...]:
+    """What ``aion info`` says of the compression of sqlite3 storage files read without
+    metadata.yaml, each once, in file order: ``zstd (file)`` for a file compressed whole,
+    ``none`` for a plain one whose payloads are plain, then ``zstd (message)`` when payloads
+    are compressed (``payloads``: None when unknown). A file-compressed recording killed
+    before its last file was compressed leaves plain and compressed files side by side."""
+    from aion_cli.formats.rosbag2_storage import is_zstd
+
+    found = ["zstd (file)" if is_zstd(o) else "none" for o in originals]
+    if payloads is not False:
+        found = [c for c in found if c != "none"]
+    if payloads:
+        found.append("zstd (message)")
+    return tuple(dict.fromkeys(found))
 
 
 def reindex(path: Path | str) -> dict[str, Any]:

@@ -306,6 +306,38 @@ def unlisted_storage_files(folder: Path) -> list[str]:
     return [p.name for p in storage_files(folder) if p.name not in names]
 
 
+def uncompressed_files_note(folder: Path) -> str | None:
+    """What is wrong when ``folder/metadata.yaml`` says the bag was recorded with
+    ``compression_mode: file`` but some storage files it lists are not zstd-compressed (a
+    recording killed before its last file was compressed, a file decompressed by hand):
+    rosbags then fails with zstd's own words, naming no file. None when every listed file is
+    compressed, the yaml says no file compression or cannot be read, or ``folder`` is not a
+    folder."""
+    from ruamel.yaml import YAML
+
+    from aion_cli.listing import first_few
+
+    if not folder.is_dir():
+        return None
+    try:
+        data = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+    except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
+        return None
+    info = _nested(data, "rosbag2_bagfile_information")
+    if not isinstance(info, dict) or str(info.get("compression_mode") or "").lower() != "file":
+        return None
+    listed = info.get("relative_file_paths")
+    names = [Path(str(name)).name for name in listed] if isinstance(listed, list) else []
+    plain = [n for n in names if (folder / n).is_file() and not is_zstd(folder / n)]
+    if not plain:
+        return None
+    verb = "is" if len(plain) == 1 else "are"
+    return (
+        f"its metadata.yaml says compression_mode: file, but {first_few(plain, 3)} {verb} not "
+        "zstd-compressed"
+    )
+
+
 def _when(t_ns: int) -> str:
     try:
         return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")

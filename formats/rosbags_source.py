@@ -483,8 +483,10 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
         reader.open()
     except Exception as exc:  # rosbags ReaderError and the errors of its storage plugins
         from aion_cli.formats.bag_reader import plain_reason
+        from aion_cli.formats.rosbag2_storage import uncompressed_files_note
 
-        raise LogFormatError(
-            f"{path}: not a readable {what} ({plain_reason(exc)})", hint=hint
-        ) from exc
+        # rosbags' "Unable to decompress Zstandard data" says which file it is not
+        why = (kind != "bag" and uncompressed_files_note(path)) or plain_reason(exc)
+        raise LogFormatError(f"{path}: not a readable {what} ({why})", hint=hint) from exc
     return reader
+
