@@ -215,6 +215,7 @@ def _compare_statistics(
     indexed: dict[int, int] = {}
     every_chunk_indexed = True
     starts, ends = list(bare_times), list(bare_times)
+    zero_chunk = False
     # (offset, start, end, uncompressed size) of every chunk: its record's where readable,
     # its index's where not (what cannot be checked is taken as the index says)
     spans = [(o, h.start, h.end, h.uncompressed_size) for o, h in heads.items()]
@@ -232,6 +233,11 @@ def _compare_statistics(
         if not has_index and uncompressed > 0:
             every_chunk_indexed = False
         if start <= end and (n > 0 or (not has_index and uncompressed > 0)):
+            if not has_index and start == end == 0:
+                # 0..0 without message indexes: how writers mark a chunk without messages
+                # (schema and channel records only), or one of messages at t = 0 only
+                zero_chunk = True
+                continue
             starts.append(start)
             ends.append(end)
     if spans and every_chunk_indexed and not bare_messages:
@@ -249,9 +255,9 @@ def _compare_statistics(
             )
         elif statistics.message_count == 0 and not every_chunk_indexed:
             check.unsure = True
-    if starts and statistics.message_count > 0:
-        first, last = min(starts), max(ends)
-        if statistics.message_start_time != first:
+    if (starts or zero_chunk) and statistics.message_count > 0:
+        first, last = (min(starts), max(ends)) if starts else (0, 0)
+        if statistics.message_start_time not in (first, *([0] if zero_chunk else [])):
             problems.append(
                 f"its statistics say the messages start at {iso(statistics.message_start_time)},"
                 f" its chunks at {iso(first)}"

@@ -485,8 +485,7 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
         from aion_cli.formats.bag_reader import plain_reason
         from aion_cli.formats.rosbag2_storage import uncompressed_files_note
 
-        # rosbags' "Unable to decompress Zstandard data" says which file it is not
+        # rosbags' "Unable to decompress Zstandard data" names no file: name the plain ones
         why = (kind != "bag" and uncompressed_files_note(path)) or plain_reason(exc)
         raise LogFormatError(f"{path}: not a readable {what} ({why})", hint=hint) from exc
     return reader
-

@@ -247,6 +247,32 @@ def test_mcap_chunks_of_mixed_compression(
     assert (info["messages"], info["start_ns"], info["end_ns"]) == (120, want[0][0], want[-1][0])
 
 
+@pytest.mark.parametrize("packing", ["lz4", "zstd", ""])
+@pytest.mark.parametrize("with_summary", [True, False], ids=["summary", "no-summary"])
+def test_a_chunk_of_schemas_and_channels_only(
+    packing: str, with_summary: bool, mcap: tuple[Path, McapParts], tmp_path: Path
+) -> None:
+    """A first chunk holding the schema and channel records and no message (no message
+    index, start and end time 0: how the MCAP writers mark a chunk without messages; the C++
+    writer closes one when a recording stops after a new topic's records), then the messages
+    in zstd chunks. Its honest summary used to be reported as disagreeing with the data
+    ("its statistics say the messages start at 2026-11-23T08:00:00.000000Z, its chunks at
+    1970-01-01T00:00:00.000000Z") and the file read linearly. The index gives no times
+    through the summary (that chunk has no message index: the build reads the messages)."""
+    _, parts = mcap
+    f = McapFile(parts).chunk(records_chunk([*parts.schemas, *parts.channels], packing))
+    for k in range(0, 120, 30):
+        f.chunk(records_chunk(parts.messages[k : k + 30], "zstd"))
+    path = f.write(tmp_path / "defs.mcap", with_summary=with_summary)
+    got = read_back(path, ["/tracks", "/tf"])
+    want = [(m.log_time, m.data) for m in parts.messages]
+    assert got["messages"] == want
+    assert got["ranged"] == got["wanted_range"]
+    assert got["index"] == (None if with_summary else [t for t, _ in want])
+    assert got["span"] == (want[0][0], want[-1][0])
+    assert got["warnings"] == []
+
+
 def interleaved(parts: McapParts) -> McapFile:
     """Schemas and channels outside chunks, then by 20 messages: a zstd chunk, bare messages,
     an lz4 chunk, an uncompressed chunk, bare messages, a zstd chunk."""
@@ -310,12 +336,23 @@ def test_statistics_that_count_only_chunked_messages_are_said(
     ]
 
 
-@pytest.mark.parametrize("layout", ["mixed", "interleaved"])
+def definitions_first(parts: McapParts) -> McapFile:
+    """A chunk of the schemas and channels alone (lz4), then the messages in zstd chunks."""
+    f = McapFile(parts).chunk(records_chunk([*parts.schemas, *parts.channels], "lz4"))
+    for k in range(0, 120, 30):
+        f.chunk(records_chunk(parts.messages[k : k + 30], "zstd"))
+    return f
+
+
+LAYOUTS = {"mixed": mixed_file, "interleaved": interleaved, "definitions-first": definitions_first}
+
+
+@pytest.mark.parametrize("layout", list(LAYOUTS))
 def test_a_mixed_mcap_builds_the_map_of_its_plain_twin(
     layout: str, mcap: tuple[Path, McapParts], tmp_path: Path
 ) -> None:
     source, parts = mcap
-    f = mixed_file(parts) if layout == "mixed" else interleaved(parts)
+    f = LAYOUTS[layout](parts)
     path = f.write(tmp_path / f"{layout}.mcap")
     assert_same_map(path, source, tmp_path, 60)
 
