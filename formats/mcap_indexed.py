@@ -65,6 +65,21 @@ class _McapIndexed(_McapLinearRead):
             return None
         return stream_times.from_channels(*found[:2], wanted, found[2])
 
+    def sniff_payloads(self) -> None:
+        """Read the payloads as zstd-compressed one by one (a rosbag2 bag recorded with
+        ``compression_mode: message``) when the first message's payload starts with the zstd
+        magic bytes: for a rosbag2 mcap storage file read without metadata.yaml, which alone
+        says so. A CDR payload starts with its encapsulation header (``00 01`` or ``00 00``),
+        never with them. Reads the first chunk holding a message."""
+        from dataclasses import replace
+
+        from aion_cli.formats.rosbag2_storage import ZSTD_MAGIC
+
+        first = next(iter(self.messages(None)), None)
+        if first is not None and bytes(first.data[:4]) == ZSTD_MAGIC:
+            self._unzstd = True
+            self.file = replace(self.file, compression=self._compression())
+
     def vouch(self, chunks: frozenset[int]) -> None:
         """The build uses log times taken from the index of ``chunks`` (offsets): reading one
         of them that fails raises :class:`~aion_cli.errors.StaleIndexError`."""

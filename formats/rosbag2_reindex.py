@@ -217,7 +217,9 @@ def _reindexed_sources(files: list[Path], shown: Path, limits: ReadLimits) -> li
                     salvaged.append(warning)
                 sqlite.append((original, plain))
             elif kind == "mcap":
-                mcap: _Source = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits)
+                packed = _open_mcap(plain, fmt_name="rosbag2-mcap", limits=limits)
+                packed.sniff_payloads()  # compression_mode: message, which only the yaml says
+                mcap: _Source = packed
                 if original in temps:
                     mcap = _Unpacked(mcap, temps[original], original)
                 opened.append(mcap)

@@ -76,9 +76,19 @@ def join_payloads(messages: Sequence[RawMessage], cdr: bool) -> Joined:
     bad = (lens < 4) | (buf[data_start] != 0) | (buf[data_start + 1] != 1)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
+        head = bytes(datas[i][:4])
+        from aion_cli.formats.rosbag2_storage import ZSTD_MAGIC
+
+        if head == ZSTD_MAGIC:  # rosbag2 message compression, read as a bare MCAP file
+            raise MessageDecodeError(
+                f"message {i} on {messages[i].topic!r} is zstd-compressed (starts with "
+                f"{head.hex()}), not CDR",
+                hint="a rosbag2 bag recorded with compression_mode: message: give its folder, "
+                "or --log-format rosbag2 with the storage file alone",
+            )
         raise MessageDecodeError(
             f"message {i} on {messages[i].topic!r} has no little-endian CDR header "
-            f"(starts with {bytes(datas[i][:4]).hex() or 'nothing'})"
+            f"(starts with {head.hex() or 'nothing'})"
         )
     return Joined(buf, data_start + 4, end, cdr)
 

@@ -154,29 +154,47 @@ def test_a_split_bag_builds_the_map_of_the_whole_recording(bags: Any, tmp_path: 
     assert_same_arrays(map_arrays(tmp_path / "split.aion"), map_arrays(tmp_path / "whole.aion"))
 
 
-@pytest.mark.parametrize("mode", ["FILE", "MESSAGE"])
-def test_rosbags_compression_modes_read_back(mode: str, bags: Any, tmp_path: Path) -> None:
-    """The 40 payloads written again by rosbags' own writer with zstd ``file`` or ``message``
-    compression: the same payloads come back, the index gives their times where the payloads
-    are plain (message mode: None, the build reads the messages), and the map equals the
-    uncompressed bag's."""
+def rosbags_bag(folder: Path, storage: str, mode: str, messages: list[tuple[int, bytes]]) -> Path:
+    """``messages`` (CDR payloads on /tracks) written by rosbags' own writer with zstd
+    compression in ``mode`` (``FILE`` or ``MESSAGE``)."""
     from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
     from aion_cli.formats import msgdefs
 
-    storage, whole, *_ = bags
-    want = payloads(whole)
-    folder = tmp_path / "packed"
     writer = Writer(folder, version=9, storage_plugin=StoragePlugin[storage.upper()])
     writer.set_compression(CompressionMode[mode], CompressionFormat.ZSTD)
     with writer:
         conn = writer.add_connection("/tracks", TRACKED, typestore=msgdefs.typestore(2))
-        for t, data in want:
+        for t, data in messages:
             writer.write(conn, t, data)
+    return folder
+
+
+@pytest.mark.parametrize("metadata", [True, False], ids=["metadata", "no-metadata"])
+@pytest.mark.parametrize("mode", ["FILE", "MESSAGE"])
+def test_rosbags_compression_modes_read_back(
+    mode: str, metadata: bool, bags: Any, tmp_path: Path
+) -> None:
+    """The 40 payloads written again by rosbags' own writer with zstd ``file`` or ``message``
+    compression, with its metadata.yaml or without (a recording killed before writing it):
+    the same payloads come back, the index gives their times where the payloads are plain
+    (message mode: None, the build reads the messages), and the map equals the uncompressed
+    bag's. Without metadata.yaml, an mcap storage file's compressed payloads were taken for
+    CDR: "none of the 40 messages on /tracks ... could be decoded" (sqlite3's were found by
+    their magic bytes)."""
+    storage, whole, *_ = bags
+    want = payloads(whole)
+    folder = rosbags_bag(tmp_path / "packed", storage, mode, want)
+    if not metadata:
+        (folder / "metadata.yaml").unlink()
     assert payloads(folder) == want
     with open_logs([folder]) as logs:
         index = logs.index_times(["/tracks"], vouch=False)
-        assert logs.warnings == []
+        if metadata:
+            assert logs.warnings == []
+        else:
+            (line,) = logs.warnings
+            assert "packed: no metadata.yaml; indexed in memory from its 1 storage file" in line
     if mode == "FILE":
         assert index is not None
         assert [int(t) for t in index.t] == [t for t, _ in want]
@@ -188,6 +206,29 @@ def test_rosbags_compression_modes_read_back(mode: str, bags: Any, tmp_path: Pat
     assert report["detections"] == {"read": 40, "used": 40, "dropped": {}}
     build_json(whole, "-o", tmp_path / "whole.aion")
     assert_same_arrays(map_arrays(tmp_path / "packed.aion"), map_arrays(tmp_path / "whole.aion"))
+
+
+def test_a_message_compressed_storage_file_given_alone(bags: Any, tmp_path: Path) -> None:
+    """The storage file of a bag recorded with message compression, given alone: as a rosbag2
+    file (``--log-format rosbag2``; a .db3 is one anyway) its payloads are decompressed; an
+    .mcap read as a plain MCAP file is one error line saying its payloads are zstd, not CDR,
+    and how to read it (it said the messages had "no little-endian CDR header" and blamed the
+    type's definition)."""
+    storage, whole, *_ = bags
+    folder = rosbags_bag(tmp_path / "packed", storage, "MESSAGE", payloads(whole))
+    (alone,) = folder.glob(f"*{EXT[storage]}")
+    report = build_json(alone, "--log-format", "rosbag2", "-o", tmp_path / "alone.aion")
+    assert report["detections"] == {"read": 40, "used": 40, "dropped": {}}
+    if storage == "mcap":
+        fails(
+            run("build", alone, "-o", tmp_path / "plain.aion"),
+            "none of the 40 messages on /tracks",
+            "message 0 on '/tracks' is zstd-compressed (starts with 28b52ffd), not CDR",
+        )
+        assert "hint: a rosbag2 bag recorded with compression_mode: message" in run(
+            "build", alone, "-o", tmp_path / "plain.aion"
+        ).stderr
+        assert not (tmp_path / "plain.aion").exists()
 
 
 def test_sqlite3_and_mcap_storage_in_one_folder_is_one_error(
