@@ -374,3 +374,63 @@ def test_info_table_names_every_compression(mcap: tuple[Path, McapParts], tmp_pa
     table = run("info", path)
     assert table.exit_code == 0, table.stderr
     assert "compression: lz4, none, zstd" in " ".join(table.stdout.split())
+
+
+def test_a_damaged_chunk_among_mixed_ones_is_skipped_alone(
+    bag: tuple[Path, Any, list[tuple[int, bytes]]],
+    mcap: tuple[Path, McapParts],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The lz4 chunk of a bag (bz2, lz4, none, bz2) and of an MCAP (zstd, lz4, none, zstd)
+    damaged inside its data: a build's first pass takes the log times from the index and so
+    vouches for that chunk; its stream meets the damage (StaleIndexError, once) and starts
+    over reading every message: the detections of the other chunks, the skipped one named
+    once."""
+    from aion_cli.errors import StaleIndexError
+
+    stale: list[str] = []
+    original = StaleIndexError.__init__
+
+    def spy(self: StaleIndexError, message: str, *args: Any, **kw: Any) -> None:
+        stale.append(message)
+        original(self, message, *args, **kw)
+
+    monkeypatch.setattr(StaleIndexError, "__init__", spy)
+    _, topic, msgs = bag
+    data = bytearray(craft_bag(topic, [msgs[:10], msgs[10:20], msgs[20:30], msgs[30:]],
+                               ["bz2", "lz4", "none", "bz2"]))  # fmt: skip
+    at = data.index(b"\x04\x22\x4d\x18")  # the lz4 frame's magic
+    data[at + 30 : at + 40] = bytes(10)
+    path = tmp_path / "damaged.bag"
+    path.write_bytes(bytes(data))
+    report = build_json(path, "-o", tmp_path / "bag.aion")
+    assert report["detections"] == {"read": 30, "used": 30, "dropped": {}}
+    (line,) = report["warnings"]
+    assert line.startswith("damaged.bag: chunk at byte ")
+    assert line.endswith("; 10 messages lost (/tracks 10)")
+    (restart,) = stale
+    assert restart.startswith("damaged.bag: ")
+
+    _, parts = mcap
+    f = McapFile(parts)
+    head = [*parts.schemas, *parts.channels]
+    for k, packing in enumerate(["zstd", "lz4", "", "zstd"]):
+        f.chunk(records_chunk([*(head if k == 0 else []), *parts.messages[30 * k : 30 * k + 30]],
+                              packing))  # fmt: skip
+    raw = bytearray(f.bytes())
+    at = f.chunk_offsets[1]
+    raw[at + 120 : at + 130] = bytes(10)
+    path = tmp_path / "damaged.mcap"
+    path.write_bytes(bytes(raw))
+    report = build_json(path, "-o", tmp_path / "mcap.aion")
+    assert report["detections"] == {"read": 45, "used": 45, "dropped": {}}
+    assert report["warnings"] == [
+        f"damaged.mcap: corrupt chunk at byte {at} skipped: cannot decompress its lz4 data "
+        "(LZ4F_decompress failed with code: ERROR_decompressionFailed); 30 messages lost "
+        "(/tf 15, /tracks 15)"
+    ]
+    assert stale[1:] == [
+        f"damaged.mcap: the chunk at byte {at} cannot be read, but its log times were taken "
+        "from its index"
+    ]
