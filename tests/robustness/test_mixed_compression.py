@@ -284,6 +284,45 @@ def test_a_chunk_of_schemas_and_channels_only(
     assert got["warnings"] == []
 
 
+def reversed_chunk_indexes(summary: Any) -> None:
+    summary.chunk_indexes.reverse()
+
+
+@pytest.mark.parametrize(
+    ("order", "edit"),
+    [
+        ([0, 1, 2, 3], reversed_chunk_indexes),
+        ([2, 0, 3, 1], None),
+        ([2, 0, 3, 1], reversed_chunk_indexes),
+    ],
+    ids=["chunk-indexes-reversed", "chunks-out-of-time-order", "both"],
+)
+@pytest.mark.parametrize("with_summary", [True, False], ids=["summary", "no-summary"])
+def test_mcap_chunks_and_chunk_indexes_out_of_order(
+    order: list[int], edit: Any, with_summary: bool, mcap: tuple[Path, McapParts], tmp_path: Path
+) -> None:
+    """Four chunks (zstd, lz4, uncompressed, zstd in file order) holding the messages' 30s in
+    ``order``; the summary's chunk indexes in file order or reversed. Every message comes
+    back in time order from the stream and the index; chunks out of time order are said."""
+    _, parts = mcap
+    f = McapFile(parts)
+    head = [*parts.schemas, *parts.channels]
+    for k, part in enumerate(order):
+        records = [*(head if k == 0 else []), *parts.messages[30 * part : 30 * part + 30]]
+        f.chunk(records_chunk(records, ["zstd", "lz4", "", "zstd"][k]))
+    path = f.write(tmp_path / "order.mcap", edit, with_summary=with_summary)
+    got = read_back(path, ["/tracks", "/tf"])
+    want = [(m.log_time, m.data) for m in parts.messages]
+    assert got["messages"] == want
+    assert got["ranged"] == got["wanted_range"]
+    assert got["index"] == [t for t, _ in want]
+    if order == sorted(order):
+        assert got["warnings"] == []
+    else:
+        (line,) = got["warnings"]
+        assert line.startswith("order.mcap: its log times go back at least 0.7 min")
+
+
 def interleaved(parts: McapParts) -> McapFile:
     """Schemas and channels outside chunks, then by 20 messages: a zstd chunk, bare messages,
     an lz4 chunk, an uncompressed chunk, bare messages, a zstd chunk."""
