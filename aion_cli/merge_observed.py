@@ -5,10 +5,14 @@ logs as observed (nobody there); a part map built with ``--observed`` fills only
 logs' time, so its manifest keeps the spans (``observed_spans``) and the merge fills the
 windows between the maps before it and the part from them, as a build continuing the earlier
 maps with the part's logs and spans does (from the window after the earlier logs' last,
-``recording_reach``, to the one before the part's first, ``recording_first``)."""
+``recording_reach``, to the one before the part's first, ``recording_first``). The spans it
+fills with are every part's (:func:`merged_part_spans`), as one build of all the logs takes
+every span given: an earlier part's span that reaches past its logs covers the time after
+them too."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -18,21 +22,33 @@ if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
 
 
-def fill_declared_gap(acc: MapState, early: Manifest | None, part: Manifest) -> int | None:
+def merged_part_spans(parts: Sequence[Manifest]) -> tuple[tuple[int, int], ...]:
+    """The ``observed_spans`` of every part map of a merge (``parts``: their manifests),
+    sorted, once each: the spans one build of all their logs is given."""
+    return tuple(sorted({(int(a), int(b)) for m in parts for a, b in m.observed_spans}))
+
+
+def fill_declared_gap(
+    acc: MapState,
+    early: Manifest | None,
+    part: Manifest,
+    spans: tuple[tuple[int, int], ...] | None = None,
+) -> int | None:
     """Declare observed in ``acc`` (the maps before the part, ``early`` the manifest of the
-    latest of them) the windows between them and the part (manifest ``part``) that the part's
-    ``observed_spans`` cover: how many; None when it has none to fill with (no spans stored,
-    the maps' recording windows unknown, or no window between them). ``early`` None: the
-    part is the merge's first map, and its spans' windows before its logs count from the
-    spans' start, as one build of its logs as a new map counts them
-    (:func:`aion_cli.log_observed.fill_start`)."""
+    latest of them) the windows between them and the part (manifest ``part``) that the
+    ``spans`` cover (every part's, :func:`merged_part_spans`; None: the part's own
+    ``observed_spans``): how many; None when the part has no spans stored to fill with (a
+    part built without ``--observed``), the maps' recording windows are unknown, or no
+    window lies between them. ``early`` None: the part is the merge's first map, and the
+    spans' windows before its logs count from the spans' start, as one build of its logs as a
+    new map counts them (:func:`aion_cli.log_observed.fill_start`)."""
     from aion_cli.fixed_sensor import declared_windows
 
-    spans = part.observed_spans
     delta = acc.window_ns
     first = part.counts.get("recording_first")
-    if not spans or type(first) is not int:
+    if not part.observed_spans or type(first) is not int:
         return None
+    spans = part.observed_spans if spans is None else spans
     if early is None:
         lo: int | None = min(int(a) for a, _ in spans) // delta
     else:

@@ -282,8 +282,9 @@ def _fold(
         interleave,
         pair_notes,
     )
-    from aion_cli.merge_observed import fill_declared_gap
+    from aion_cli.merge_observed import fill_declared_gap, merged_part_spans
 
+    spans = merged_part_spans([m.manifest for m in maps if m.head.part])
     tally = ApproximationTally(report.lineage)
     pairs: list[str] = []
     joins: list[str] = []
@@ -307,7 +308,9 @@ def _fold(
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
-            filled = fill_declared_gap(base, maps[k - 1].manifest if k else None, m.manifest)
+            filled = fill_declared_gap(
+                base, maps[k - 1].manifest if k else None, m.manifest, spans
+            )
             if not k and filled:  # the merged map starts where they do, as one build's
                 report.start_ns = int(base.observation.merged_fixed()[0][0])
             acc = _join_part(base, state, m.name, report, joins)

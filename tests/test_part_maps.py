@@ -318,6 +318,39 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
     assert "the 138 window(s) between them" in gap[0]
 
 
+def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
+    tmp_path: Path,
+) -> None:
+    """Each part declares its own morning: Monday 05:00-12:00 and Tuesday 06:00-12:00 (logs
+    08:00-09:00 each day). One build given both spans observes Monday 05:00-12:00 (42
+    windows: its span reaches past its log into the time before Tuesday's) and Tuesday
+    06:00 to its log's last window (18): 60 windows. The merge filled the time between the
+    parts from the later part's spans alone and so lost Monday 09:00-12:00 (18 windows:
+    42 observed); it fills it from every part's spans, as the build is given them."""
+    logs = []
+    for day in (0, 1):
+        path = tmp_path / f"fixed{day}.mcap"
+        write_office_log(path, tf=False, shift_s=day * 24 * HOUR_S, duration_s=HOUR_S)
+        logs.append(path)
+    spans = [("--observed", "2026-11-23 05:00..2026-11-23 12:00"),
+             ("--observed", "2026-11-24 06:00..2026-11-24 12:00")]
+    parts = []
+    for k, log in enumerate(logs):
+        parts.append(tmp_path / f"p{k}.aion")
+        assert run("build", log, "--part", "-o", parts[k], "-q", *spans[k]).exit_code == 0
+    report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    assert not [n for n in report["notes"] if "--observed" in n]
+    one = tmp_path / "one.aion"
+    both = [*spans[0], *spans[1]]
+    assert run("build", *logs, "-o", one, "--workers", "1", "-q", *both).exit_code == 0
+    whole, merged = load_map(one), load_map(tmp_path / "m.aion")
+    assert whole.manifest["counts"]["windows"] == 60
+    assert merged.manifest["counts"] == whole.manifest["counts"]
+    assert differences(whole.state, merged.state) == []
+    assert merged.manifest["time_span"] == whole.manifest["time_span"]
+    assert whole.manifest["time_span"]["start_ns"] == (1795392000 + 5 * HOUR_S) * 10**9
+
+
 def test_a_fixed_sensor_is_described_in_windows_and_old_manifests_still_parse() -> None:
     """The description counts windows (it gave their time as the log's: a 250-second log read
     "(10 min of a 10 min span)"), the window's length in minutes, seconds or hours. The share
