@@ -24,7 +24,9 @@ def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[st
     logs' own time in windows (``recording_windows``, the union over every build's logs: a
     window the previous builds' logs reached, ``recording_reach``, is not counted again; the
     first window they recorded, ``recording_first``, lets a merge do the same), and the
-    detection messages that held no detection (``empty_messages``)."""
+    detection messages that held no detection (``empty_messages``). The reach includes the
+    windows a declared span filled after the last message: a continuing build's spans fill
+    from the window after them."""
     from aion_cli.fixed_sensor import recording_window_count
 
     new = report.to_dict()["detections"]
@@ -33,6 +35,8 @@ def cumulative_counts(report: BuildReport, previous: Manifest | None) -> dict[st
     if report.fixed_windows is not None and report.recording_spans:
         new["recording_windows"] = recording_window_count(report.recording_spans, after)
         reach = max(last for _, _, last in report.recording_spans)
+        if report.declared_end_ns is not None:  # a declared span after the last message
+            reach = max(reach, (report.declared_end_ns - 1) // report.fixed_windows[3])
         new["recording_reach"] = reach if after is None else max(after, reach)
         new["recording_first"] = min(first for _, first, _ in report.recording_spans)
     if previous is None:
@@ -103,10 +107,15 @@ def write_build(
             f"rest is unknown, not empty): {silent_advice(counts)}"
         )
     if declared and fixed is not None:
-        from aion_cli.log_observed import fill_start
+        from aion_cli.log_observed import fill_end, fill_start
 
-        start = fill_start(declared, fixed[3], previous, state.deferred is not None)
-        outside = outside_logs_note(declared, report.recording_spans, fixed[3], start)
+        part, delta = state.deferred is not None, fixed[3]
+        start, end = fill_start(declared, delta, previous, part), fill_end(declared, delta, part)
+        args = (declared, report.recording_spans, delta, start)
+        outside = (  # a part's: the merge fills them
+            outside_logs_note(*args, "aion merge fills them as it joins the parts", end)
+            if part else outside_logs_note(*args, end=end)
+        )
         if outside is not None:
             report.notes.append(outside)
     manifest = Manifest(

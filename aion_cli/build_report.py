@@ -129,6 +129,7 @@ class BuildReport:
     observed_added: int | None = None
     #: --observed: where the windows its spans added begin, when before the first message
     declared_start_ns: int | None = None
+    declared_end_ns: int | None = None  # and end, when after the last (a shard's: its own)
     #: a robot trajectory: its windows without a detection message (None without one; a
     #: parallel build adds its shards' up into one note, ``tf_feed.silent_note``)
     silent_windows: tuple[int, int] | None = None  # (windows, window ns)

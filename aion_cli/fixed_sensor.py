@@ -89,7 +89,7 @@ def fixed_sensor_windows(
     the Mapper's windows, notes the windows left out, and returns the observation's text."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
-    from aion_cli.log_observed import declared_start_ns
+    from aion_cli.log_observed import declared_end_ns, declared_start_ns
 
     delta = window_ns(mapper.state.config.window_s)
     recorded = logset.recorded_windows(delta)
@@ -120,6 +120,7 @@ def fixed_sensor_windows(
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
             report.declared_start_ns = declared_start_ns(added, declared, delta)
+            report.declared_end_ns = declared_end_ns(added, declared, delta)
         windows = np.union1d(windows, extra)
     within = recording_bounds(logset, times, windows, delta, read)
     lo = np.array([int(a) for a, _ in declared], np.int64)
@@ -348,8 +349,7 @@ def observed_note(added: int, delta: int) -> str:
     (``added`` windows of ``delta`` ns)."""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({time_text(added * delta)}), up to the last log's last message (the time "
-        "between the logs included)"
+        f"({time_text(added * delta)}), the time between the logs included"
     )
 
 
@@ -359,20 +359,21 @@ def outside_logs_note(
     delta: int,
     start: int | None = None,
     then: str = "a log that continues the map fills the time since the map's last message",
+    end: int | None = None,
 ) -> str | None:
     """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie outside the
-    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``start``:
-    the first window the spans may fill from, :func:`aion_cli.log_observed.fill_start`),
-    which stay unknown (:func:`declared_windows`; ``then``: what follows for the command).
-    None when there are none."""
+    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``start``,
+    ``end``: the first and last window the spans may fill, ``log_observed.fill_start`` and
+    ``fill_end``), which stay unknown (:func:`declared_windows`; ``then``: what follows for
+    the command). None when there are none."""
     if not declared or not spans:
         return None
     total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
-    filled = declared_windows(declared, spans, delta, (start, None))
+    filled = declared_windows(declared, spans, delta, (start, end))
     n = total - filled.size
     if n == 0:
         return None
-    last = _fill_range(spans, (start, None))[1]
+    last = _fill_range(spans, (start, end))[1]
     after = sum(b - max(a, last + 1) + 1 for a, b in _window_runs(declared, delta) if b > last)
     where = (
         "after the last log's last message" if after == n else "outside the logs' time "

@@ -163,17 +163,7 @@ def read_held_out(
     seen = {w: state.seen[w] for w in windows[~fixed].tolist() if w in state.seen}
     exposure = {w: state.seen_exposure[w] for w in seen}
     share = np.where(fixed, state.observation.fixed_share(windows, state.window_ns, config), 1.0)
+    # every declared window counts (a new map's fill, from the spans' start to their end:
+    # log_observed.fill_start, fill_end), so no note of declared windows left out
     notes = list(reading.report.notes)
-    fixed_windows = reading.report.fixed_windows
-    if opts.observed and fixed_windows is not None:  # as aion build notes them
-        from aion_cli.fixed_sensor import outside_logs_note
-        from aion_cli.log_observed import fill_start
-
-        spans, delta = reading.report.recording_spans, fixed_windows[3]
-        outside = outside_logs_note(
-            tuple(opts.observed), spans, delta, fill_start(opts.observed, delta, None, opts.part),
-            then="the hourly activity leaves them out",
-        )
-        if outside is not None:
-            notes.append(outside)
     return HeldOut(batch, windows, fixed, reading.report, notes, seen, exposure, share)

@@ -17,6 +17,7 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,6 +25,9 @@ from aion_cli.build_options import BuildOptions
 from aion_cli.engine.types import I64
 from aion_cli.log_times import TimeCheck, TopicTimes
 from aion_cli.manifest import Manifest
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport
 
 Spans = tuple[tuple[int, int], ...]
 
@@ -120,11 +124,13 @@ def observed_fill(
 ) -> tuple[int | None, int | None]:
     """How far ``--observed`` spans may fill beyond a build's logs (windows of ``delta`` ns):
     a parallel shard's share of the time between the logs (set by its parent in
-    ``opts.observed_fill``), else from :func:`fill_start`, so building A and B at once equals
-    building A and continuing with B."""
+    ``opts.observed_fill``), else from :func:`fill_start` to :func:`fill_end` (the last shard
+    too), so building A and B at once equals building A and continuing with B."""
     lo, hi = opts.observed_fill
     if lo is None:
         lo = fill_start(opts.observed, delta, previous, opts.part)
+    if hi is None:
+        hi = fill_end(opts.observed, delta, opts.part)
     return lo, hi
 
 
@@ -146,6 +152,17 @@ def fill_start(
     return min(int(lo) for lo, _ in declared) // delta
 
 
+def fill_end(declared: Spans, delta: int, part: bool) -> int | None:
+    """The last window the ``declared`` spans may fill to: their last window, so a span that
+    ends after the last log's last message is observed whole, as in a log ``aion convert
+    --observed`` wrote (its marker messages run to the span's end), a continued map's too;
+    None, to the logs' own last window: a part map (``aion merge`` fills the time after the
+    last part from the parts' spans) and a build without spans."""
+    if part or not declared:
+        return None
+    return max(-(-int(hi) // delta) for _, hi in declared) - 1
+
+
 def declared_start_ns(added: I64, declared: Spans, delta: int) -> int | None:
     """Where the windows of ``delta`` ns without a message that the ``declared`` spans made
     observed (``added``, sorted) begin: the first one's start, or later where the spans
@@ -156,3 +173,31 @@ def declared_start_ns(added: I64, declared: Spans, delta: int) -> int | None:
         return None
     begin = int(added[0]) * delta
     return max(begin, min(int(lo) for lo, hi in declared if int(hi) > begin))
+
+
+def declared_end_ns(added: I64, declared: Spans, delta: int) -> int | None:
+    """Where the windows of ``delta`` ns without a message that the ``declared`` spans made
+    observed (``added``, sorted) end: the last one's end, or earlier where the spans end
+    inside it (a span to 12:02 observes 12:00-12:10 to 12:02); None without any. A build's
+    time span ends there (at its last instant, the last nanosecond before it) when that is
+    after the last message, as a log ``aion convert --observed`` wrote ends at its last
+    marker, the span's last instant."""
+    if added.size == 0 or not declared:
+        return None
+    end = (int(added[-1]) + 1) * delta
+    return min(end, max(int(hi) for lo, hi in declared if int(lo) < end))
+
+
+def declared_span(
+    start: int | None, end: int | None, report: BuildReport
+) -> tuple[int | None, int | None]:
+    """A build's time span from its first and last message (``start``, ``end``) and the
+    windows its declared spans added (``report.declared_start_ns``, ``declared_end_ns``): a
+    span declared before the first message starts it there, one declared after the last
+    message ends it at its last instant."""
+    first, after = report.declared_start_ns, report.declared_end_ns
+    if first is not None and (start is None or first < start):
+        start = first
+    if after is not None and (end is None or after - 1 > end):
+        end = after - 1
+    return start, end

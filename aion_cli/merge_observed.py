@@ -65,3 +65,36 @@ def fill_declared_gap(
     if early is None and gap.size and acc.open_window is None:
         acc.open_window = int(gap[0])  # the join closes them, as a build's first window
     return int(gap.size)
+
+
+def fill_declared_tail(
+    acc: MapState, last: Manifest, spans: tuple[tuple[int, int], ...]
+) -> int | None:
+    """Declare observed in ``acc`` (the merged maps, the part of manifest ``last`` joined
+    last) the windows after the last part's logs that the ``spans`` (every part's,
+    :func:`merged_part_spans`) cover, to their end, and close them as one build of all the
+    logs closes them when a declared span ends after its last message
+    (:func:`aion_cli.log_observed.fill_end`: it reaches the span's last instant, the window
+    holding it left open): the end of the time they observed (ns, exclusive; the merged map
+    ends at its last instant), None when there is none (the part stores no spans, its logs'
+    recording windows are unknown, or the spans end within its logs)."""
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.fixed_sensor import declared_windows
+    from aion_cli.log_observed import declared_end_ns, fill_end
+
+    reach, delta = last.recording_reach, acc.window_ns
+    end = fill_end(spans, delta, False)
+    if not last.observed_spans or reach is None or end is None or end <= reach:
+        return None
+    tail = declared_windows(spans, [("after", reach + 1, end)], delta)
+    stop = declared_end_ns(tail, spans, delta)
+    if stop is None:
+        return None
+    bounds = (
+        np.array([lo for lo, _ in spans], np.int64),
+        np.array([hi for _, hi in spans], np.int64),
+    )
+    mapper = Mapper(acc.config, acc)
+    mapper.set_fixed_windows(tail, bounds)
+    mapper.advance(stop - 1)
+    return stop

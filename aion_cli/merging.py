@@ -282,7 +282,7 @@ def _fold(
         interleave,
         pair_notes,
     )
-    from aion_cli.merge_observed import fill_declared_gap, merged_part_spans
+    from aion_cli.merge_observed import fill_declared_gap, fill_declared_tail, merged_part_spans
 
     spans = merged_part_spans([m.manifest for m in maps if m.head.part])
     tally = ApproximationTally(report.lineage)
@@ -323,6 +323,8 @@ def _fold(
         del state
         sink.advance(1)
     assert acc is not None  # a merge has one map at least
+    if maps[-1].head.part and acc.deferred is None:  # the parts' spans after their logs
+        report.end_ns = fill_declared_tail(acc, maps[-1].manifest, spans)
     if report.lineage == "different":
         report.notes.append(
             f"{report.released} node entries released to the hash cells at their places"
@@ -402,6 +404,8 @@ def _write(
     starts = [m.manifest.start_ns for m in maps if m.manifest.start_ns is not None]
     starts += [] if report.start_ns is None else [report.start_ns]  # the first part's spans'
     ends = [m.manifest.end_ns for m in maps if m.manifest.end_ns is not None]
+    tail = report.end_ns  # where the parts' spans after their logs end (fill_declared_tail)
+    ends += [] if tail is None else [tail - 1]  # the last instant, as one build's
     report.start_ns = min(starts) if starts else None
     report.end_ns = max(ends) if ends else None
     counts: dict[str, Any] = {}
@@ -417,6 +421,8 @@ def _write(
             if key in c:  # add_counts checks them
                 part[key] = c[key]
         counts = add_counts(counts, part, meet=True)
+    if tail is not None and type(counts.get("recording_reach")) is int:  # as one build's
+        counts["recording_reach"] = max(counts["recording_reach"], (tail - 1) // merged.window_ns)
     stats = state_counts(merged)
     frames = _frame_warning([(m.name, m.manifest.map_frame) for m in maps])
     if frames is not None:

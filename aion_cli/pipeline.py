@@ -330,11 +330,9 @@ class _Build(StreamStep):
                 if self.opts.graph_file is not None:  # the file again: one pass added it once
                     mapper.state.graph = file_graph_time(mapper.state.graph, before)
             self._stream(logset, plan, tf, mapper)
-            end = self._times.end_ns
-            if end is not None:
-                # the last message aion uses, never a container's summary or another topic
-                mapper.advance(end)
-            self._span()
+            end = self._span()
+            if end is not None:  # the last message aion uses (not a summary's), or a span's
+                mapper.advance(end)  # declared after it (its last instant)
             # readers warn while streaming too (a corrupt chunk ends a file early): lost or
             # unusual input is a warning, shown with -q and under "warnings" in JSON
             self.report.warnings.extend(w for w in logset.warnings if w not in self.report.warnings)
@@ -461,14 +459,16 @@ class _Build(StreamStep):
             graph_topics_at_once=lambda: topics_at_once(logset, plan.names("graph")),
         )
 
-    def _span(self) -> None:
+    def _span(self) -> int | None:
         """The map's time span: the first and last message the build used (detections, scene
         graphs, dynamic TF; strays and out-of-range times left out), joined with a continued
-        map's; a span ``--observed`` declared before the first message starts it there."""
-        start, declared = self._times.start_ns, self.report.declared_start_ns
-        if declared is not None and (start is None or declared < start):
-            start = declared
-        self.join_span(start, self._times.end_ns)
+        map's; a span ``--observed`` declared before the first message starts it there, one
+        after the last ends it there (``declared_span``). Returns this build's end."""
+        from aion_cli.log_observed import declared_span
+
+        start, end = declared_span(self._times.start_ns, self._times.end_ns, self.report)
+        self.join_span(start, end)
+        return end
 
     def join_span(self, start: int | None, end: int | None) -> None:
         """The report's span: ``start``..``end`` joined with the continued map's."""

@@ -324,9 +324,11 @@ def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
     """Each part declares its own morning: Monday 05:00-12:00 and Tuesday 06:00-12:00 (logs
     08:00-09:00 each day). One build given both spans observes Monday 05:00-12:00 (42
     windows: its span reaches past its log into the time before Tuesday's) and Tuesday
-    06:00 to its log's last window (18): 60 windows. The merge filled the time between the
-    parts from the later part's spans alone and so lost Monday 09:00-12:00 (18 windows:
-    42 observed); it fills it from every part's spans, as the build is given them."""
+    06:00-12:00 (36: to the span's end, past the last log): 78 windows, and ends at 12:00
+    on Tuesday. The merge filled the time between the parts from the later part's spans
+    alone and so lost Monday 09:00-12:00 (18 windows); it fills it from every part's spans,
+    as the build is given them, and the time after the last part to the spans' end, as the
+    build does."""
     logs = []
     for day in (0, 1):
         path = tmp_path / f"fixed{day}.mcap"
@@ -344,11 +346,12 @@ def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
     both = [*spans[0], *spans[1]]
     assert run("build", *logs, "-o", one, "--workers", "1", "-q", *both).exit_code == 0
     whole, merged = load_map(one), load_map(tmp_path / "m.aion")
-    assert whole.manifest["counts"]["windows"] == 60
+    assert whole.manifest["counts"]["windows"] == 78
     assert merged.manifest["counts"] == whole.manifest["counts"]
     assert differences(whole.state, merged.state) == []
     assert merged.manifest["time_span"] == whole.manifest["time_span"]
     assert whole.manifest["time_span"]["start_ns"] == (1795392000 + 5 * HOUR_S) * 10**9
+    assert whole.manifest["time_span"]["end_ns"] == (1795392000 + 36 * HOUR_S) * 10**9 - 1
 
 
 def test_a_fixed_sensor_is_described_in_windows_and_old_manifests_still_parse() -> None:
@@ -404,7 +407,11 @@ def test_ordinary_maps_built_with_observed_spans_say_the_time_between_them_is_lo
 ) -> None:
     """Ordinary maps keep no spans: their merge cannot count the declared 138 windows between
     the logs (Monday 09:00 to Tuesday 08:00) as one build does, so their nights' rates came
-    out several times the build's, and the merge said nothing. A note now says so and how."""
+    out several times the build's, and the merge said nothing. A note says so and how. Each
+    map built with the two days' span observes it whole (to its end, as a log converted with
+    it does), so the two maps overlap, and the merge says a window both observed counts
+    twice; built with the span to its own log's end, the first leaves the time between the
+    maps to the note."""
     logs, maps = [], []
     declared = ("--observed", "2026-11-23 00:00..2026-11-25 00:00")
     for day in (0, 1):
@@ -414,6 +421,12 @@ def test_ordinary_maps_built_with_observed_spans_say_the_time_between_them_is_lo
         one = tmp_path / f"m{day}.aion"
         assert run("build", path, "-o", one, "-q", *declared).exit_code == 0
         maps.append(one)
+    report = json.loads(run("merge", *maps, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    assert [n for n in report["notes"] if n.startswith("the times of m0.aion and m1.aion "
+                                                        "overlap")]
+    first = ("--observed", "2026-11-23 00:00..2026-11-23 09:00")  # to its log's end
+    assert run("build", logs[0], "-o", maps[0], "-q", *first).exit_code == 0
+    assert run("build", logs[1], "-o", maps[1], "-q").exit_code == 0
     report = json.loads(run("merge", *maps, "-o", tmp_path / "m.aion", "--format", "json").stdout)
     gap = [n for n in report["notes"] if "--observed" in n]
     assert len(gap) == 1

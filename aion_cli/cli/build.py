@@ -258,9 +258,10 @@ class _RichProgress:
     multiple=True,
     help="Without a robot trajectory: a span the sensor was recording (repeatable), e.g. "
     '"2026-01-05 00:00..2026-01-12 00:00": its windows without a message count as observed, '
-    "with nobody in them (a tracker that publishes only when it sees someone), up to the "
-    "last log's last message, the time between logs included (a new map: from the span's "
-    "start; continued: from where the map's logs stopped). "
+    "with nobody in them (a tracker that publishes only when it sees someone), to the "
+    "span's end, the time between logs included (a new map: from the span's start; "
+    "continued: from where the map's logs or spans stopped; --part: the logs' time, aion "
+    "merge fills the rest). "
     "Times in --tz, else the continued map's zone, else the zone the logs declare, else UTC. "
     "Without it: the spans the logs record (aion convert --observed); given, it replaces them.",
 )

@@ -35,10 +35,10 @@ def test_declared_spans_make_silent_windows_observed_empty(
     mornings: Path, tmp_path: Path
 ) -> None:
     """Messages in two 10-minute windows a day (08:00-08:20): 8 windows observed. Declaring
-    the days observed makes every window from the span's start (00:00 on the 22nd, 32 h
-    before the first message) to the last message's observed: 32 h, 3 days and 2 windows =
-    626 windows (the span reaches past the log's last message and is clipped there: a log
-    that continues the map fills from it)."""
+    the days observed makes every window of the span observed, from its start (00:00 on the
+    22nd, 32 h before the first message) to its end (00:00 on the 28th, 63 h 40 min after
+    the last message): 6 days = 864 windows (the windows after the last message were left
+    unknown, 626, where the same log converted with the span observed them)."""
     silent = run_json("build", mornings, "-o", tmp_path / "a.aion", "--format", "json")
     assert silent["observation"].startswith("fixed sensor over the 8 windows with messages")
     assert silent["windows"] == 8  # the summary counts the open last window as the flows do
@@ -55,11 +55,11 @@ def test_declared_spans_make_silent_windows_observed_empty(
         "--observed", "2026-11-22 00:00..2026-11-28 00:00",
     )
     assert declared["observation"] == (
-        "fixed sensor over the 626 windows with messages or --observed (626 of the 626 windows "
+        "fixed sensor over the 864 windows with messages or --observed (864 of the 864 windows "
         "of 10 min from the first to the last)"
     )
-    assert declared["windows"] == 626
-    added = "--observed: 618 window(s) without a message"
+    assert declared["windows"] == 864
+    added = "--observed: 856 window(s) without a message"
     assert any(note.startswith(added) for note in declared["notes"])
     assert declared["detections"] == silent["detections"]
     assert not any(note.startswith("the fixed sensor observed") for note in declared["notes"])
@@ -102,19 +102,25 @@ def test_a_silent_night_is_forecast_as_a_night(mornings: Path, tmp_path: Path) -
                                                                    False]
 
 
-def test_spans_outside_the_logs_add_nothing(mornings: Path, tmp_path: Path) -> None:
+def test_a_span_after_the_logs_is_observed_as_in_a_converted_log(
+    mornings: Path, tmp_path: Path
+) -> None:
+    """A span declared wholly after the log (31 days in 2030) is observed whole, as one
+    wholly before it is and as the log converted with the span observes it (its markers
+    run there); the time between the log and the span is declared by no span and stays
+    unknown. It had been left unknown ("4,464 declared window(s) lie after the last log's
+    last message")."""
     report = run_json(
         "build", mornings, "-o", tmp_path / "m.aion", "--format", "json",
         "--observed", "2030-01-01..2030-02-01",
     )
-    assert report["observation"].startswith("fixed sensor over the 8 windows with messages")
-    # the span's 31 days of 10-minute windows lie after the log: none observed, all counted
+    assert report["observation"].startswith(
+        "fixed sensor over the 4,472 windows with messages or --observed (4,472 of the "
+        "167,856 windows of 10 min from the first to the last)"
+    )
     assert [n for n in report["notes"] if n.startswith("--observed: ")] == [
-        "--observed: 0 window(s) without a message taken as observed (0 s), up to the last "
-        "log's last message (the time between the logs included)",
-        "--observed: 4,464 declared window(s) (744.0 h) lie after the last log's last message "
-        "and stay unknown, not empty: a log that continues the map fills the time since the "
-        "map's last message",
+        "--observed: 4,464 window(s) without a message taken as observed (744.0 h), the time "
+        "between the logs included",
     ]
 
 
@@ -127,7 +133,7 @@ def test_a_log_with_declared_spans_is_not_cut_into_time_shards(
     )
     assert "--observed: a log is not cut into time shards (its declared spans count from its " \
         "first message to its last): built in sequence" in report["notes"]
-    assert report["observation"].startswith("fixed sensor over the 626 windows")
+    assert report["observation"].startswith("fixed sensor over the 864 windows")
 
 
 def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Path) -> None:
@@ -147,9 +153,10 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
     two = run_json("build", *logs, "-o", tmp_path / "two.aion", "--format", "json",
                    "--workers", "2", *span)
     assert len(two["workers"]) == 3
-    # the span's start (00:00 on the 23rd, 8 h before the first file's 08:00) to the last
-    # file's 12:20: two days and 74 windows, 12 of them (4 per file) with messages
-    assert one["observation"].startswith("fixed sensor over the 362 windows")
+    # the span, 00:00 on the 23rd (8 h before the first file's 08:00) to 00:00 on the 27th
+    # (35.7 h after the last file's 12:20): four days, 576 windows, 12 (4 per file) with
+    # messages
+    assert one["observation"].startswith("fixed sensor over the 576 windows")
     assert read_manifest(tmp_path / "two.aion")["observation"] == one["observation"]
     for at in ("2026-11-26 10:00", "2026-11-26 03:00"):
         a = run_json("predict", tmp_path / "one.aion", "--time", at, "--format", "json")
@@ -157,24 +164,25 @@ def test_logs_with_declared_spans_build_in_parallel_to_the_same_map(tmp_path: Pa
         assert [(e["id"], e["flow"]) for e in a["entries"]] == \
             [(e["id"], e["flow"]) for e in b["entries"]]
     # one note of the windows the spans added, the three files' summed, as one pass gives it
-    # (the workers' build had listed one note per shard); the span's windows after the last
-    # file (12:20 on the 25th to the 27th, 35.7 h) stay unknown
+    # (the workers' build had listed one note per shard); the last shard fills the span's
+    # windows after the last file (12:20 on the 25th to the 27th, 35.7 h: they stayed
+    # unknown) and ends the map at the span's last instant, as one pass
     added = [[n for n in r["notes"] if n.startswith("--observed: ")] for r in (one, two)]
     assert added[0] == added[1] == [
-        "--observed: 350 window(s) without a message taken as observed (58.3 h), up to the "
-        "last log's last message (the time between the logs included)",
-        "--observed: 214 declared window(s) (35.7 h) lie after the last log's last message "
-        "and stay unknown, not empty: a log that continues the map fills the time since the "
-        "map's last message",
+        "--observed: 564 window(s) without a message taken as observed (94.0 h), the time "
+        "between the logs included",
     ]
+    ends = {read_manifest(tmp_path / f"{m}.aion")["time_span"]["end_ns"] for m in ("one", "two")}
+    assert ends == {(1795392000 + 4 * DAY_S) * 10**9 - 1}
 
 
 def test_a_continued_map_fills_the_declared_time_since_its_logs_in_parallel_too(
     tmp_path: Path,
 ) -> None:
-    """A map of the first day continued with the next two, each in its own file: the first
-    shard fills from the window after the map's last message, so the workers' map equals the
-    sequential continuation and the build of all three at once."""
+    """A map of the first day (its span that day) continued with the next two, each in its
+    own file, and the span of the three days: the first shard fills from the window after the
+    map's reach (its span's end), so the workers' map equals the sequential continuation and
+    the build of all three at once with that span."""
     logs = []
     for k in range(3):
         log = tmp_path / f"day{k}.mcap"
@@ -186,15 +194,17 @@ def test_a_continued_map_fills_the_declared_time_since_its_logs_in_parallel_too(
     answers = []
     for workers in ("1", "2"):
         step = tmp_path / f"step{workers}.aion"
-        run_json("build", logs[0], "-o", step, "--format", "json", *span)
+        run_json("build", logs[0], "-o", step, "--format", "json", "--observed",
+                 "2026-11-23..2026-11-24")
         report = run_json("build", *logs[1:], "--map", step, "--format", "json",
                           "--workers", workers, *span)
         assert len(report["workers"]) == (2 if workers == "2" else 0)  # 2: one per file
         answers.append(step)
     observations = {read_manifest(p)["observation"] for p in (together, *answers)}
-    # the span's 00:00 on the 23rd to 08:20 on the 25th: two days, 8 h and two windows
-    assert observations == {"fixed sensor over the 338 windows with messages or --observed "
-                            "(338 of the 338 windows of 10 min from the first to the last)"}
+    # the span's 00:00 on the 23rd to 00:00 on the 26th: three days
+    assert observations == {"fixed sensor over the 432 windows with messages or --observed "
+                            "(432 of the 432 windows of 10 min from the first to the last)"}
+    assert len({read_manifest(p)["counts"]["recording_reach"] for p in (together, *answers)}) == 1
     at = "2026-11-26 03:00"
     flows = [[(e["id"], e["flow"]) for e in run_json(
         "predict", p, "--time", at, "--format", "json")["entries"]] for p in (together, *answers)]
@@ -241,7 +251,7 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
 
     made = aion.build(mornings, tmp_path / "api.aion",
                       observed=[("2026-11-22 00:00", "2026-11-28 00:00")])
-    assert made.report.to_dict()["observation"].startswith("fixed sensor over the 626 windows")
+    assert made.report.to_dict()["observation"].startswith("fixed sensor over the 864 windows")
     with pytest.raises(InputError, match="the end is not after the start"):
         aion.build(mornings, tmp_path / "bad.aion", observed=[("2026-11-24", "2026-11-23")])
 
@@ -249,20 +259,22 @@ def test_the_python_api_takes_the_same_spans(mornings: Path, tmp_path: Path) -> 
 def test_declared_time_between_two_logs_is_observed(tmp_path: Path) -> None:
     """Two sessions of the office log twelve hours apart, in two files, and a span declared
     over the day: the twelve hours between the files count as observed (a tracker recorded
-    in daily files, silent between them), and the span's eight hours before the first file,
-    00:00 to 20:20 = 122 windows; building both at once
-    equals building one and continuing with the other, which fills from where the map's
-    logs stopped (its own two windows and the 70 before them)."""
+    in daily files, silent between them), and the span's eight hours before the first file
+    and its hours after the second, 00:00 to 24:00 = 144 windows; building both at once
+    equals building the first with its half day, 00:00 to 12:00, and continuing with the
+    other and the day, which fills from where the map's span stopped (the 72 windows from
+    12:00)."""
     morning, evening = tmp_path / "morning.mcap", tmp_path / "evening.mcap"
     write_office_log(morning, graph=False, tf=False)
     write_office_log(evening, graph=False, tf=False, shift_s=DAY_S // 2)
     span = "2026-11-23 00:00..2026-11-24 00:00"
     both = run_json("build", morning, evening, "-o", tmp_path / "both.aion", "--format", "json",
                     "--observed", span)
-    assert both["observation"].startswith("fixed sensor over the 122 windows with messages "
-                                          "or --observed (122 of the 122 windows of 10 min")
+    assert both["observation"].startswith("fixed sensor over the 144 windows with messages "
+                                          "or --observed (144 of the 144 windows of 10 min")
     step = tmp_path / "step.aion"
-    run_json("build", morning, "-o", step, "--format", "json", "--observed", span)
+    run_json("build", morning, "-o", step, "--format", "json", "--observed",
+             "2026-11-23 00:00..2026-11-23 12:00")
     continued = run_json("build", evening, "--map", step, "--format", "json", "--observed", span)
     assert continued["observation"].startswith("fixed sensor over the 72 windows")
     assert continued["windows"] == both["windows"]
@@ -447,8 +459,8 @@ def test_the_api_reads_naive_spans_in_the_zone_the_map_follows_as_the_cli(
     """A map of 2026-11-23 08:00-08:20 UTC built in Asia/Tokyo (UTC+9), continued with the
     next day's log without ``tz`` and the span 17:00 on the 23rd to 17:30 on the 24th: read in
     Tokyo (08:00 to 08:30 UTC, as ``build --map --observed`` reads it) it covers the whole
-    time from the map's first message to the new log's last, 08:00 on the 23rd to 08:20 on the
-    24th = 144 + 2 = 146 windows. ``aion.build`` read it in UTC (from 17:00 UTC: 94)."""
+    time from the map's first message to the span's end, 08:00 on the 23rd to 08:30 on the
+    24th = 144 + 3 = 147 windows. ``aion.build`` read it in UTC (from 17:00 UTC)."""
     import aion_cli as aion
 
     day0, day1 = tmp_path / "day0.mcap", tmp_path / "day1.mcap"
@@ -460,16 +472,16 @@ def test_the_api_reads_naive_spans_in_the_zone_the_map_follows_as_the_cli(
         run_json("build", day0, "-o", path, "--format", "json", "--tz", "Asia/Tokyo")
     run_json("build", day1, "--map", cli, "--format", "json", "--observed", "..".join(span))
     aion.build(day1, api, continue_from=api, observed=[span])
-    whole = ("fixed sensor over the 146 windows with messages or --observed (146 of the 146 "
+    whole = ("fixed sensor over the 147 windows with messages or --observed (147 of the 147 "
              "windows of 10 min from the first to the last)")
     assert read_manifest(cli)["observation"] == whole
-    assert read_manifest(api)["observation"] == whole  # before: 94 of the 146
+    assert read_manifest(api)["observation"] == whole  # before (in UTC): 94 of the 146
 
 
 def test_the_api_reads_naive_spans_in_the_zone_the_logs_declare(tmp_path: Path) -> None:
     """A log declaring Asia/Tokyo (``convert --tz``) with one minute at 08:00 UTC on the 23rd
     and on the 24th: the span 17:00 to 17:30 the next day, naive, is read in Tokyo as
-    ``build --observed`` reads it and covers both days' 08:00 to the last message: 145
+    ``build --observed`` reads it and covers both days' 08:00 to 08:30 on the 24th: 147
     windows (in UTC it would start nine hours late)."""
     import aion_cli as aion
 
@@ -481,4 +493,4 @@ def test_the_api_reads_naive_spans_in_the_zone_the_logs_declare(tmp_path: Path) 
     assert run("convert", tmp_path / "t.csv", "-o", log, "--tz", "Asia/Tokyo").exit_code == 0
     made = aion.build(log, tmp_path / "m.aion", observed=[("2026-11-23 17:00", "2026-11-24 17:30")])
     assert made.timezone == "Asia/Tokyo"
-    assert made.manifest.observation.startswith("fixed sensor over the 145 windows")
+    assert made.manifest.observation.startswith("fixed sensor over the 147 windows")

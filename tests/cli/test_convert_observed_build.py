@@ -14,7 +14,7 @@ import yaml
 
 from aion_cli.formats.mapfile import read_manifest
 from tests.cli.atc_sessions import SPAN, convert_atc, observed_windows, write_two_sessions
-from tests.cli.conftest import run, run_json
+from tests.cli.conftest import assert_one_line_error, run, run_json
 
 
 @pytest.fixture(scope="module")
@@ -141,6 +141,72 @@ def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path:
     assert "before the map's data" not in at.stderr
 
 
+def _late_rows(path: Path, minutes: range) -> Path:
+    """ATC rows from 08:10 UTC on 2026-11-23: one person a minute (of ``minutes``) walking
+    for 30 s from 5 s past it (minutes 0-19: the last row at 08:29:34)."""
+    t0 = 1795421400  # 2026-11-23 08:10 UTC
+    path.write_text("".join(
+        f"{t0 + minute * 60 + 5 + i}.000,{minute + 1},{-10 + i * 0.5:.3f},1.000,0.5,0.0\n"
+        for minute in minutes for i in range(30)
+    ))
+    return path
+
+
+def test_a_span_after_the_last_detection_is_observed_by_either_route(tmp_path: Path) -> None:
+    """The span 08:00-08:55, detections 08:10:05 to 08:29:34: the windows 08:30-08:40 and
+    08:40-08:50 and half of 08:50-09:00 hold no detection but are declared, so both routes
+    observe 08:00 to 08:55: 5.5 windows, and both maps end at the span's last instant
+    (08:54:59.999999999, the converted log's last marker). build --observed had stopped at
+    the last message (3 windows, the map ending at 08:29:34), where the converted log,
+    whose markers run to 08:55, observed them. The same from two files, with one worker or
+    two, and from a map of the first file (its span to 08:20) continued with the second and
+    the whole span. A map of the first file given the whole span has observed 08:20-08:55:
+    the second file is refused, as after a log converted with the span (its markers run to
+    08:55)."""
+    late = _late_rows(tmp_path / "late.csv", range(20))
+    span = "2026-11-23 08:00..2026-11-23 08:55"
+    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    convert_atc(late, marked, "--observed", span)
+    convert_atc(late, plain)
+    run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
+    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", span,
+                 "--format", "json")
+    via_convert = observed_windows(tmp_path / "a.aion")
+    assert via_convert.max() == pytest.approx(5.5)
+    assert observed_windows(tmp_path / "b.aion").tobytes() == via_convert.tobytes()
+    assert not any("stay unknown" in n for n in b["notes"])  # no declared window left out
+    end = (1795420800 + 55 * 60) * 10**9 - 1
+    assert read_manifest(tmp_path / "a.aion")["time_span"]["end_ns"] == end
+    assert read_manifest(tmp_path / "b.aion")["time_span"]["end_ns"] == end
+    # the same detections in two files (08:10-08:20, 08:20-08:30)
+    files = []
+    for k, minutes in enumerate((range(10), range(10, 20))):
+        files.append(tmp_path / f"f{k}.mcap")
+        convert_atc(_late_rows(tmp_path / f"f{k}.csv", minutes), files[k])
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}.aion"
+        run_json("build", *files, "-o", out, "--observed", span, "--workers", workers,
+                 "--format", "json")
+        assert observed_windows(out).tobytes() == via_convert.tobytes()
+        assert read_manifest(out)["time_span"]["end_ns"] == end
+    step = tmp_path / "step.aion"
+    run_json("build", files[0], "-o", step, "--observed", "2026-11-23 08:00..2026-11-23 08:20",
+             "--format", "json")
+    run_json("build", files[1], "--map", step, "--observed", span, "--format", "json")
+    assert observed_windows(step).tobytes() == via_convert.tobytes()
+    assert read_manifest(step)["time_span"]["end_ns"] == end
+    for key in ("windows", "recording_reach"):
+        assert read_manifest(step)["counts"][key] == read_manifest(tmp_path / "w1.aion")[
+            "counts"][key]
+    whole = tmp_path / "whole.aion"
+    run_json("build", files[0], "-o", whole, "--observed", span, "--format", "json")
+    refused = run("build", files[1], "--map", whole, "-q", "--observed", span)
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "but whole.aion has already closed every window "
+                          "before 2026-11-23 08:50:00 UTC: logs must be added to a map in time "
+                          "order")
+
+
 @pytest.mark.parametrize("workers", ["1", "2"])
 def test_two_logs_whose_spans_overlap_mark_their_shared_stamps_twice(
     two: Path, tmp_path: Path, workers: str
@@ -166,8 +232,8 @@ def test_two_logs_whose_spans_overlap_mark_their_shared_stamps_twice(
         notes[name] = [n for n in built["notes"] if n.startswith("--observed: ")]
         windows[name] = observed_windows(tmp_path / f"{name}.aion")
     assert notes["two"] == notes["one"] == [
-        "--observed: 9 window(s) without a message taken as observed (1.5 h), up to the last "
-        "log's last message (the time between the logs included)"
+        "--observed: 9 window(s) without a message taken as observed (1.5 h), the time "
+        "between the logs included"
     ]
     assert windows["two"].max() == pytest.approx(4 - 1 / 30 + 9)
     assert windows["two"].tobytes() == windows["one"].tobytes()
