@@ -38,9 +38,28 @@ NO_MARKS.flags.writeable = False
 
 def with_logs_observed(opts: BuildOptions) -> tuple[BuildOptions, list[str]]:
     """``opts`` with the observed spans its logs record (:func:`logs_observed`), and the
-    notes to give."""
+    notes to give. A part map continued (``--part --map PART``) fills with the spans its
+    earlier builds stored too (its manifest: :func:`continued_manifest`), as one build given
+    them all and ``aion merge`` do: an earlier span may reach past the part's logs into the
+    new ones' time."""
+    from aion_cli.manifest import part_spans
+
     observed, marked, notes = logs_observed(opts.observed, opts.logs)
+    if observed and opts.part and opts.continue_from is not None:
+        observed = part_spans(continued_manifest(opts.continue_from), observed)
     return replace(opts, observed=observed, observed_marked=marked), notes
+
+
+def continued_manifest(path: Path) -> Manifest | None:
+    """The manifest of the map at ``path`` (a part map's holds its ``observed_spans``); None
+    where it cannot be read (the build's own load of the map then says why)."""
+    from aion_cli.errors import AionError
+    from aion_cli.formats.mapfile import read_manifest
+
+    try:
+        return Manifest.from_dict(read_manifest(path))
+    except (OSError, AionError):
+        return None
 
 
 def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, list[str]]:

@@ -328,7 +328,7 @@ def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
     on Tuesday. The merge filled the time between the parts from the later part's spans
     alone and so lost Monday 09:00-12:00 (18 windows); it fills it from every part's spans,
     as the build is given them, and the time after the last part to the spans' end, as the
-    build does."""
+    build does. So does a part continued with the later log and its span."""
     logs = []
     for day in (0, 1):
         path = tmp_path / f"fixed{day}.mcap"
@@ -352,6 +352,15 @@ def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
     assert merged.manifest["time_span"] == whole.manifest["time_span"]
     assert whole.manifest["time_span"]["start_ns"] == (1795392000 + 5 * HOUR_S) * 10**9
     assert whole.manifest["time_span"]["end_ns"] == (1795392000 + 36 * HOUR_S) * 10**9 - 1
+    # the first part continued with the second log and its span, then merged alone: the
+    # continuation fills with the part's stored span too (it had filled with its own, 60)
+    r = run("build", logs[1], "--part", "--map", parts[0], "-q", *spans[1])
+    assert r.exit_code == 0, r.stderr
+    assert run("merge", parts[0], "-o", tmp_path / "c.aion", "-q").exit_code == 0
+    continued = load_map(tmp_path / "c.aion")
+    assert continued.manifest["counts"] == whole.manifest["counts"]
+    assert differences(whole.state, continued.state) == []
+    assert continued.manifest["time_span"] == whole.manifest["time_span"]
 
 
 def test_a_fixed_sensor_is_described_in_windows_and_old_manifests_still_parse() -> None:
