@@ -62,15 +62,29 @@ def predict_json(doc: dict[str, Any], columns: EntryColumns) -> Iterator[str]:
     return rt.json_document(doc, "entries", entries)
 
 
-def predict_csv(columns: EntryColumns, keys: Sequence[str]) -> Iterator[str]:
-    """``to_csv(records, keys)`` of the records of ``columns``."""
+def predict_csv(
+    columns: EntryColumns, keys: Sequence[str], hour_observed: bool | None = None
+) -> Iterator[str]:
+    """``to_csv(records, keys)`` of the records of ``columns``, each with the time's
+    ``hour_observed`` (:func:`aion_cli.predictions.observed_text` of it: the same cell on
+    every row) where ``keys`` holds that column."""
+    from aion_cli.predictions import observed_text
+
     n = len(columns)
     widths = {k: int(columns.floats[k].shape[1]) for k in keys if _is_list(columns, k) and n}
     yield rt.csv_header(keys, widths)
+    seen = rt.csv_strings(rt.object_array([observed_text(hour_observed)]))[0]
+
+    def cells(a: int, b: int) -> list[Any]:
+        return [
+            np.full(b - a, seen, dtype=object)
+            if k == "hour_observed"
+            else _csv_cells(columns, k, slice(a, b))
+            for k in keys
+        ]
+
     per_record = len(keys) + _bins(columns)
-    yield from rt.csv_rows(
-        n, lambda a, b: [_csv_cells(columns, k, slice(a, b)) for k in keys], _block(per_record)
-    )
+    yield from rt.csv_rows(n, cells, _block(per_record))
 
 
 def _is_list(columns: EntryColumns, key: str) -> bool:

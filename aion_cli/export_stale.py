@@ -191,7 +191,8 @@ def check_written_here(out_dir: Path, paths: Iterable[Path], owned: Written, for
 def is_export_file(path: Path) -> bool:
     """Whether ``path`` is a file an export of aion wrote, which a new export may replace:
     a PLY / PCD scene file with aion's marker (:mod:`formats.scene_files`), an
-    ``entries.csv`` beginning with the columns of ``aion predict``, an ``entries.json``
+    ``entries.csv`` beginning with the columns of ``aion predict`` (with or without the
+    last, ``hour_observed``, which exports before it lacked), an ``entries.json``
     holding a predict document (:data:`PREDICT_KEYS`, its ``mode`` predicted or historical:
     a file of the user's with a ``map`` and ``entries`` of its own is not one)."""
     from aion_cli.formats.scene_files import is_aion_scene_file
@@ -204,7 +205,9 @@ def is_export_file(path: Path) -> bool:
             with open(path, encoding="utf-8", errors="replace") as fh:
                 columns = fh.readline().rstrip("\r\n").split(",")
             keys = [re.sub(r"_\d+$", "", c) for c in columns]  # histogram_0.. -> histogram
-            return [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]] == CSV_KEYS
+            keys = [k for i, k in enumerate(keys) if i == 0 or k != keys[i - 1]]
+            # an export before hour_observed ended its columns with name
+            return keys in (CSV_KEYS, CSV_KEYS[: CSV_KEYS.index("hour_observed")])
         if path.name == "entries.json":  # the keys of predict's document, not any "map"
             doc = json.loads(path.read_bytes())
             return (

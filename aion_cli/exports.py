@@ -163,9 +163,9 @@ def _export_one(
     path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
     files = write_scene(loaded, table, folder, fmt, path_rows, flow_scale)
     # the text of to_csv / to_json of the records, written a block of entries at a time
-    with open(folder / "entries.csv", "w") as fh:
-        fh.writelines(predict_csv(columns, CSV_KEYS))
     (seen,) = hour_flags(loaded, [t_ns])
+    with open(folder / "entries.csv", "w") as fh:
+        fh.writelines(predict_csv(columns, CSV_KEYS, seen))
     doc = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
     with open(folder / "entries.json", "w") as fh:
         fh.writelines(predict_json(doc, columns))

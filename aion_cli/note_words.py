@@ -1,7 +1,14 @@
 """Words for times in aion's notes: clock times of in-day bins and their runs, spans of
-days, durations rounded for reading, and dates in a zone. Shared by the forecast notes."""
+days, durations rounded for reading, and dates in a zone. Shared by the forecast notes, with
+the mark of a forecast at an hour no log observed (:data:`EXTRAPOLATED`)."""
 
 from __future__ import annotations
+
+EXTRAPOLATED = "(extrapolated: an hour no log observed)"
+"""The mark, in a title, of a forecast at a time whose hour no day of the map observed (JSON
+``hour_observed`` false): the tables of ``predict --time`` and ``plan``, the pictures of
+``plan --png`` and of ``export --format png`` at one time (a series marks each row or panel
+``extrapolated`` alone). Here, beside no import, so that the CLI names it at load."""
 
 WEEKDAYS = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday", "Sunday")
 

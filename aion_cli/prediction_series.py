@@ -146,10 +146,12 @@ class SeriesTable:
     def observed_text(self) -> list[str | None]:
         """Per time, ``hour_observed`` as CSV text (``true`` / ``false``, as in the JSON);
         None for every time where the map does not list the hours it observed."""
+        from aion_cli.predictions import observed_text
+
         flags = self.hour_observed
         if flags is None or None in flags:
             return [None] * len(self.times_ns)
-        return ["true" if seen else "false" for seen in flags]
+        return [observed_text(seen) for seen in flags]
 
 
 def _value(x: float) -> float | None:

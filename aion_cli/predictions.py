@@ -41,7 +41,9 @@ def kind_label(kind: Any) -> str:
     return kind if isinstance(kind, str) else KINDS.get(int(kind), str(kind))
 LAYERS = ("all", "places", "cells", "rooms", "buildings")
 
-#: the record fields CSV output has, in order (JSON has these and ``speed_per_bin``)
+#: the columns of ``predict``'s CSV (and ``export``'s entries.csv), in order: the record
+#: fields (JSON has these and ``speed_per_bin``), then the time's ``hour_observed``
+#: (:func:`observed_text`, the same on every row), as the series CSV ends with it
 CSV_KEYS = [
     "id",
     "kind",
@@ -62,7 +64,14 @@ CSV_KEYS = [
     "family",
     "direction_family",
     "name",
+    "hour_observed",
 ]
+
+
+def observed_text(seen: bool | None) -> str | None:
+    """A time's ``hour_observed`` as a CSV cell: ``true`` / ``false`` as JSON writes it, None
+    (an empty cell) where not known: historical, or a map that does not list its hours."""
+    return None if seen is None else "true" if seen else "false"
 
 
 def rows_from_table(

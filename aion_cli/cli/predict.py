@@ -26,6 +26,7 @@ from aion_cli.cli.predict_series import (
     run_series,
     say_nearest,
 )
+from aion_cli.note_words import EXTRAPOLATED
 from aion_cli.predictions import LAYERS
 
 EPILOG = """\b
@@ -43,6 +44,8 @@ Examples:
 JSON keys: map, mode (predicted / historical), time, time_ns, zone, bins, bin_centres_deg,
 hour_observed (not with --historical: whether any day of the data observed the time's hour),
 entries[{the fields}].
+CSV: a row per entry, the fields below, then hour_observed (the JSON's, true / false on every
+row; empty with --historical or for a map that lists no hours).
 Fields (JSON keys, CSV columns): id, kind (node/cell/room/building), layer, x, y, z,
 flow (expected detections per window), flow_per_hour, direction_deg (dominant direction:
 where most people walk, degrees counter-clockwise from +x), direction_bin (its bin),
@@ -69,9 +72,6 @@ one it repeats is its first occurrence.
 TABLE_LIMIT = 100
 """Rows a terminal table shows without --top (JSON and CSV always have every entry)."""
 
-EXTRAPOLATED = "(extrapolated: an hour no log observed)"
-"""The table title's mark of a time whose hour no day of the map observed (JSON
-``hour_observed`` false): every row's forecast is extrapolated (the note says how)."""
 
 
 @click.command(
@@ -173,7 +173,8 @@ def command(
     say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
     (seen,) = hour_flags(loaded, [t_ns])
     if fmt in ("json", "csv"):
-        _emit_text(fmt, entries, document(map_path, loaded.config.bins, [], t_ns, zone, seen))
+        doc = document(map_path, loaded.config.bins, [], t_ns, zone, seen)
+        _emit_text(fmt, entries, doc, seen)
         return
     rows = entries.records()
     title = (
@@ -197,14 +198,15 @@ def command(
     emit(fmt, rows, columns, title=title)
 
 
-def _emit_text(fmt: str, entries: Any, doc: dict[str, Any]) -> None:
+def _emit_text(fmt: str, entries: Any, doc: dict[str, Any], seen: bool | None) -> None:
     """Every entry as JSON (``doc`` with them) or CSV on stdout, written from the columns
     ``entries`` (:mod:`aion_cli.entry_text`): the bytes of ``emit``'s ``to_json`` /
-    ``to_csv`` of the records."""
+    ``to_csv`` of the records, each CSV row with the time's ``hour_observed`` (``seen``, as
+    the JSON's ``hour_observed``)."""
     from aion_cli.entry_text import predict_csv, predict_json
     from aion_cli.predictions import CSV_KEYS
 
     if fmt == "json":
         emit_chunks(predict_json(doc, entries), nl=True)
     else:
-        emit_chunks(predict_csv(entries, CSV_KEYS), nl=False)
+        emit_chunks(predict_csv(entries, CSV_KEYS, seen), nl=False)

@@ -91,6 +91,10 @@ def blocks(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> i
     return int(request.param)
 
 
+FLAG_TEXT = {True: "true", False: "false", None: None}
+"""``hour_observed`` as CSV cells: as JSON writes the flag, empty (None) where not known."""
+
+
 def assert_same_text(table: Any, index: Any, names: Any, t_ns: int | None) -> None:
     """Records, JSON document and CSV of the columns equal the reference's."""
     zone = zone_named("UTC")
@@ -100,7 +104,11 @@ def assert_same_text(table: Any, index: Any, names: Any, t_ns: int | None) -> No
     doc = document("some 'map\".aion", 8, [], t_ns, zone, True)
     new_json = "".join(entry_text.predict_json(doc, columns))
     assert new_json == to_json(document("some 'map\".aion", 8, old, t_ns, zone, True))
-    assert "".join(entry_text.predict_csv(columns, CSV_KEYS)) == to_csv(old, CSV_KEYS)
+    for seen in (True, False, None):  # the time's flag on every row, empty when not known
+        flagged = [row | {"hour_observed": FLAG_TEXT[seen]} for row in old]
+        assert "".join(entry_text.predict_csv(columns, CSV_KEYS, seen)) == to_csv(
+            flagged, CSV_KEYS
+        )
 
 
 @pytest.mark.parametrize("layer", ["all", "places", "cells", "rooms", "buildings"])
@@ -160,8 +168,8 @@ def test_the_cli_prints_the_reference(sample_map: Path, fmt: str, layer: str) ->
     result = run("predict", sample_map, "--time", AT, "--tz", "UTC", "--layer", layer,
                  "--format", fmt)
     assert result.exit_code == 0, result.stderr
-    if fmt == "csv":
-        assert result.stdout == to_csv(old, CSV_KEYS)
+    if fmt == "csv":  # the sample's five days were recorded around the clock: 08:xx observed
+        assert result.stdout == to_csv([r | {"hour_observed": "true"} for r in old], CSV_KEYS)
         return
     seen = result.stdout.split('"hour_observed": ')[1].startswith("true")
     doc = document(sample_map, loaded.config.bins, old, t_ns, zone_named("UTC"), seen)
@@ -176,7 +184,8 @@ def test_cells_map_cli(office: Office) -> None:
         table, _, index, names = chosen_entries(loaded, t_ns, layer, (), None)
         old = reference_rows(table, ordered_rows(table, index, None), names)
         result = run("predict", office.map, "--time", AT, "--layer", layer, "--format", "csv")
-        assert result.stdout == to_csv(old, CSV_KEYS)
+        # the office log observed 08:00-08:20 (UTC): 08:30 lies in an hour it observed
+        assert result.stdout == to_csv([r | {"hour_observed": "true"} for r in old], CSV_KEYS)
 
 
 def _series(loaded: Any, names_tricky: bool) -> tuple[Any, list[str]]:

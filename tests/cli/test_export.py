@@ -198,15 +198,28 @@ def test_an_existing_folder_keeps_its_name(office: Office, tmp_path: Path) -> No
 
 def test_the_tables_say_whether_the_hour_was_observed(office: Office, tmp_path: Path) -> None:
     """The office log observed 08:00-08:20 UTC: entries.json at 08:30 says its hour was
-    observed, at 03:00 that it was not; historically there is no hour to speak of."""
+    observed, at 03:00 that it was not; historically there is no hour to speak of.
+    entries.csv says it too, on every row, as ``predict --format csv`` (before, its rows
+    read the same at both times once the JSON was left behind)."""
+    import csv
+
     for when, seen in ((AT, True), ("2026-11-23 03:00", False)):
         out = tmp_path / when[-5:].replace(":", "")
         result = run("export", office.map, "--time", when, "--tz", "UTC", "-o", out)
         assert result.exit_code == 0, result.stderr
         assert json.loads((out / "entries.json").read_text())["hour_observed"] is seen
+        text = (out / "entries.csv").read_text()
+        rows = list(csv.DictReader(text.splitlines()))
+        assert rows
+        assert {r["hour_observed"] for r in rows} == {"true" if seen else "false"}
+        printed = run("predict", office.map, "--time", when, "--tz", "UTC", "--format", "csv")
+        # predict's CSV, its rows in table order rather than busiest first
+        assert sorted(text.splitlines()) == sorted(printed.stdout.splitlines())
     past = tmp_path / "historical"
     assert run("export", office.map, "--historical", "-o", past).exit_code == 0
     assert "hour_observed" not in json.loads((past / "entries.json").read_text())
+    with open(past / "entries.csv", newline="") as fh:
+        assert {r["hour_observed"] for r in csv.DictReader(fh)} == {""}
 
 
 @pytest.mark.parametrize(

@@ -139,3 +139,44 @@ def test_a_series_csv_says_which_rows_are_extrapolated(office_hours: Path) -> No
     flags = {r["time"][11:16]: r["hour_observed"] for r in rows}
     assert (flags["08:00"], flags["09:00"], flags["16:00"], flags["17:00"]) == (
         "false", "true", "true", "false")
+
+
+SELECTIONS = ((), ("--top", "1"), ("--at", "0.3,0.3"), ("--node", "c4611688217451692032"),
+              ("--layer", "cells"))
+"""Every way ``predict`` chooses its entries: all, the busiest, the one nearest a point, one
+by id, a layer."""
+
+
+@pytest.mark.parametrize("extra", SELECTIONS)
+def test_a_single_time_csv_and_json_say_whether_the_hour_was_observed(
+    office_hours: Path, extra: tuple[str, ...]
+) -> None:
+    """Before: ``predict --time T --format csv`` had no hour_observed column, so 9.25 at 08:00
+    (the static rate, extrapolated) read as measured once stdout was a file, while the series
+    CSV had the column. Now every row carries the time's flag, as the series CSV writes it and
+    the JSON says it, whatever the selection; historically it is empty (no hour to speak of)
+    and the JSON has no key."""
+    import csv
+    import io
+
+    one = ("--tz", "UTC", *extra)
+    for when, seen in (("2026-11-09 08:00", False), ("2026-11-09 10:00", True)):
+        out = run("predict", office_hours, "--time", when, *one, "--format", "csv")
+        assert out.exit_code == 0, out.stderr
+        rows = list(csv.DictReader(io.StringIO(out.stdout)))
+        assert len(rows) == 1  # the one entry
+        assert out.stdout.splitlines()[0].endswith(",name,hour_observed")
+        assert rows[0]["hour_observed"] == ("true" if seen else "false")
+        flow = float(rows[0]["flow"])
+        if seen:  # a quiet hour, measured: below the mean of the hours observed
+            assert flow < STATIC
+        else:  # the static rate, counted by hand
+            assert flow == pytest.approx(STATIC, rel=1e-9)
+        doc = run_json("predict", office_hours, "--time", when, *one, "--format", "json")
+        assert doc["hour_observed"] is seen
+        (entry,) = doc["entries"]
+        assert entry["flow"] == pytest.approx(flow, abs=1e-9)  # the CSV has 9 decimals
+    past = run("predict", office_hours, "--historical", *extra, "--format", "csv")
+    assert [r["hour_observed"] for r in csv.DictReader(io.StringIO(past.stdout))] == [""]
+    doc = run_json("predict", office_hours, "--historical", *extra, "--format", "json")
+    assert "hour_observed" not in doc

@@ -112,6 +112,33 @@ def test_a_folder_export_keeps_a_csv_of_someone_elses(office: Office, tmp_path: 
     assert (out / "entries.csv").read_text() == "a,b\n1,2\n"
 
 
+def test_an_entries_csv_of_an_export_before_hour_observed_is_still_aions(
+    office: Office, tmp_path: Path
+) -> None:
+    """entries.csv now ends with ``hour_observed``; one an earlier aion exported (the same
+    columns without it) is still an export's file, which ``--force`` may replace, while a CSV
+    of someone else's with another last column is not."""
+    from aion_cli.export_stale import is_export_file
+
+    out = tmp_path / "out"
+    assert export(office, out).exit_code == 0
+    lines = (out / "entries.csv").read_text().splitlines()
+    assert lines[0].endswith(",name,hour_observed")
+    assert is_export_file(out / "entries.csv")
+    older = tmp_path / "older" / "entries.csv"
+    older.parent.mkdir()
+    older.write_text("".join(line.rsplit(",", 1)[0] + "\n" for line in lines))
+    assert older.read_text().splitlines()[0].endswith(",family,direction_family,name")
+    assert is_export_file(older)
+    assert export(office, older.parent, "--force").exit_code == 0  # replaced as aion's
+    assert older.read_text().splitlines()[0].endswith(",name,hour_observed")
+    other = tmp_path / "other" / "entries.csv"
+    other.parent.mkdir()
+    other.write_text(lines[0].replace(",hour_observed", ",notes") + "\n")
+    assert not is_export_file(other)
+    refused(export(office, other.parent, "--force"), "entries.csv exists")
+
+
 def test_a_photo_at_a_png_target_is_never_replaced(office: Office, tmp_path: Path) -> None:
     from matplotlib.figure import Figure
 
