@@ -52,7 +52,9 @@ or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving change.
 --format png writes one picture, -o naming the file: the map from above (place edges, rooms,
 hash cells, arrows along the dominant direction with length proportional to flow, coloured
 by direction entropy, blue low to red high); a series becomes small multiples, one panel per
-time (at most 24); a map whose floors lie apart in height gets one panel per floor.
+time (at most 24); a map whose floors lie apart in height gets one panel per floor. A time
+whose hour no log observed says "(extrapolated: an hour no log observed)" under its title, as
+the table of `aion predict` does; in a series, its panel's title ends with "(extrapolated)".
 
 \b
 --format mcap writes one MCAP file, -o naming it (.mcap), with a step per time logged at

@@ -21,7 +21,7 @@ from aion_cli.cli.common import (
 )
 from aion_cli.cli.completion import complete_nodes
 from aion_cli.cli.output import AionCommand, format_option, to_json
-from aion_cli.cli.predict import EXTRAPOLATED
+from aion_cli.note_words import EXTRAPOLATED
 
 EPILOG = """\b
 Examples:
@@ -55,7 +55,8 @@ extrapolated flows).
 --png draws the map from above at the departure (place edges, rooms, arrows along the
 dominant direction with length proportional to flow, coloured by direction entropy) with the
 temporal path (green) over the distance-only path (orange, dashed), each with its length and
-cost in the legend.
+cost in the legend; a departure at an hour no log observed is titled as the table is, with
+"(extrapolated: an hour no log observed)".
 """
 
 
@@ -199,7 +200,7 @@ def command(
     if png_path is not None:
         from aion_cli.pictures.render import plan_png
 
-        plan_png(loaded, routes, nav, zone, png_path, ends=_end_labels(report))
+        plan_png(loaded, routes, nav, zone, png_path, ends=_end_labels(report), observed=seen)
         report["png"] = str(png_path)
     announce_time(
         t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,

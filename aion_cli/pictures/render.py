@@ -109,12 +109,16 @@ def _mark_unobserved(
     loaded: LoadedMap, times: Sequence[int | None], titles: list[str]
 ) -> list[str]:
     """Panel titles, those at an hour no log observed on any day marked "(extrapolated)"
-    (as the forecast notes name them)."""
+    (as the forecast notes name them, and a series' table its rows); the title of one time
+    gets the mark of ``predict --time``'s table on a line of its own
+    (:data:`~aion_cli.note_words.EXTRAPOLATED`: a panel's title is not wrapped)."""
+    from aion_cli.note_words import EXTRAPOLATED
     from aion_cli.predictions import hour_flags
 
     flags = hour_flags(loaded, times)
+    mark = f"\n{EXTRAPOLATED}" if len(times) == 1 else " (extrapolated)"
     return [
-        f"{title} (extrapolated)" if seen is False else title
+        f"{title}{mark}" if seen is False else title
         for title, seen in zip(titles, flags, strict=True)
     ]
 
@@ -256,11 +260,16 @@ def plan_png(
     out: Path,
     dpi: float = DPI,
     ends: tuple[str, str] | None = None,
+    observed: bool | None = None,
 ) -> Path:
     """The picture of ``aion plan``'s two routes (from ``routes.plan_routes``) over the flow
     map at the departure, as the PNG file ``out`` (``--png``); ``ends``: how the start and
-    goal are named (``kitchen (p117)``; default: their place ids)."""
+    goal are named (``kitchen (p117)``; default: their place ids). ``observed`` False (the
+    departure's hour no day observed: ``hour_observed``) adds the table's mark,
+    :data:`~aion_cli.note_words.EXTRAPOLATED`, under the title, as the costs in the
+    legend come from extrapolated flows."""
     from aion_cli.engine.node_ids import node_label
+    from aion_cli.note_words import EXTRAPOLATED
     from aion_cli.pictures.plan import DrawnRoute, plan_figure
     from aion_cli.scene import scene_at
 
@@ -272,13 +281,16 @@ def plan_png(
         )
 
     start, goal = ends or (node_label(routes.start), node_label(routes.goal))
+    title = f"{start} to {goal}, departing {time_title(routes.depart_ns, zone)}"
+    if observed is False:  # a line of its own: the panel's title is not wrapped
+        title += f"\n{EXTRAPOLATED}"
     fig = plan_figure(
         scene_at(loaded, routes.depart_ns),
         drawn(routes.temporal),
         drawn(routes.distance_only),
         start_label=start,
         goal_label=goal,
-        title=f"{start} to {goal}, departing {time_title(routes.depart_ns, zone)}",
+        title=title,
         dpi=dpi,
     )
     return save_png(fig, out, "--png")

@@ -125,6 +125,74 @@ def test_a_plan_at_an_hour_no_log_observed_says_its_costs_are_extrapolated(
     assert api.to_dict()["hour_observed"] is False
 
 
+def _figure_text(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> str:
+    """The text of every artist of the figure the command saves as a PNG (titles, legend,
+    caption), whitespace collapsed: what a reader of the picture sees written on it."""
+    from matplotlib.text import Text
+
+    import aion_cli.pictures.render as render
+
+    figures: list[Any] = []
+    saved = render.save_png
+
+    def keep(fig: Any, out: Path, option: str = "-o") -> Path:
+        figures.append(fig)
+        return saved(fig, out, option)
+
+    monkeypatch.setattr(render, "save_png", keep)
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    (fig,) = figures
+    return " ".join(" ".join(t.get_text() for t in fig.findobj(Text)).split())
+
+
+@pytest.mark.parametrize(
+    ("when", "seen"), [("2026-11-30 07:00", False), ("2026-11-30 08:05", True)]
+)
+def test_a_plan_picture_at_an_hour_no_log_observed_says_so(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, when: str, seen: bool
+) -> None:
+    """Before: ``plan --png`` at 07:00 on the office map (observed 08:00-08:20 UTC) drew its
+    costs in the legend with nothing to say they came from extrapolated flows, while the table
+    said it in its title. Now the picture's title says it in the table's words; at 08:05 (an
+    hour observed) neither does. The legend's costs are the JSON's."""
+    png = tmp_path / f"{when[-5:].replace(':', '')}.png"
+    at = ("--from", "p0", "--to", "p3", "--tz", "UTC", "--time", when)
+    text = _figure_text(monkeypatch, "plan", office.map, *at, "--png", png)
+    assert png.stat().st_size > 0
+    doc = _plan(office.map, "--time", when, ends=("p0", "p3"))
+    assert doc["hour_observed"] is seen
+    assert f"cost {doc['temporal']['cost']:.1f}" in text
+    assert ("p0 to p3, departing Mon 2026-11-30 " + when[-5:] + " UTC") in text
+    marked = "departing Mon 2026-11-30 07:00 UTC (extrapolated: an hour no log observed)"
+    assert (marked in text) is not seen
+    assert ("extrapolated" in text) is not seen
+
+
+def test_an_export_picture_says_which_times_are_extrapolated(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``export --format png`` at one time says it as ``predict --time``'s title does; a series'
+    panels each say ``(extrapolated)``, as a series' table marks its rows; not at 08:05."""
+    one = ("--tz", "UTC", "--format", "png")
+    text = _figure_text(monkeypatch, "export", office.map, "--time", "2026-11-30 07:00", *one,
+                        "-o", tmp_path / "one.png")
+    assert "Mon 2026-11-30 07:00 UTC (extrapolated: an hour no log observed)" in text
+    monkeypatch.undo()
+    seen = _figure_text(monkeypatch, "export", office.map, "--time", "2026-11-30 08:05", *one,
+                        "-o", tmp_path / "seen.png")
+    assert "Mon 2026-11-30 08:05 UTC" in seen
+    assert "extrapolated" not in seen
+    monkeypatch.undo()
+    series = _figure_text(
+        monkeypatch, "export", office.map, "--from", "2026-11-30 07:00", "--to",
+        "2026-11-30 09:00", "--step", "1h", *one, "-o", tmp_path / "series.png",
+    )
+    for clock, seen_then in (("07:00", False), ("08:00", True), ("09:00", False)):
+        assert (f"{clock} (extrapolated)" in series) is not seen_then, clock
+    assert "no log observed" not in series  # a panel's mark is the one word, as a row's
+
+
 @pytest.mark.parametrize(
     ("extra", "fragment"),
     [

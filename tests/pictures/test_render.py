@@ -121,6 +121,11 @@ def test_panels_at_hours_no_log_observed_say_extrapolated() -> None:
         "03:00 (extrapolated)", "08:30"
     ]
     assert _mark_unobserved(loaded, [None], ["observed"]) == ["observed"]  # type: ignore[arg-type]
+    # one time: the mark of predict --time's table, on a line of its own under the title
+    assert _mark_unobserved(loaded, times[:1], ["Mon 03:00"]) == [  # type: ignore[arg-type]
+        "Mon 03:00\n(extrapolated: an hour no log observed)"
+    ]
+    assert _mark_unobserved(loaded, times[1:], ["Mon 08:30"]) == ["Mon 08:30"]  # type: ignore[arg-type]
     older = SimpleNamespace(
         manifest={"state": {}, "config": {}, "families": {"flow": {"static": 1}}}
     )
