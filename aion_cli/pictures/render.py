@@ -148,7 +148,8 @@ def render_map_png(
     dpi: float = DPI,
 ) -> Path:
     """The top-down picture of ``loaded`` at ``t_ns`` (None: as observed) as the PNG file
-    ``out``, with the path ``path_xyz`` f64[p,3] if given; returns ``out``."""
+    ``out``, with the path ``path_xyz`` f64[p,3] if given; returns ``out``. A time whose hour
+    no log observed is marked as :func:`export_png` marks it."""
     from aion_cli.formats.scene_colours import PATH_GREEN
     from aion_cli.scene import scene_at
 
@@ -158,7 +159,7 @@ def render_map_png(
         paths = [PathLine(np.asarray(path_xyz, dtype=np.float64), "planned path", PATH_GREEN)]
     fig = topdown_figure(
         [scene_at(loaded, t_ns)],
-        [time_title(t_ns, zone)],
+        _mark_unobserved(loaded, [t_ns], [time_title(t_ns, zone)]),
         suptitle=title,
         paths=[paths],
         dpi=dpi,

@@ -100,6 +100,10 @@ class ReportContent:
     window_s: float
     matched: int
     notes: tuple[str, ...] = field(default=())
+    hour_observed: bool | None = None
+    """Whether any day of the map's data observed ``t_ns``'s hour of the day (``aion predict
+    --time``'s JSON ``hour_observed``; where not, the busiest entries and the map's picture
+    are extrapolated); None as observed, or for a map that does not list its hours."""
 
 
 def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> ReportContent:
@@ -108,6 +112,7 @@ def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> Re
     from pathlib import Path
 
     from aion_cli.manifest import Manifest
+    from aion_cli.predictions import hour_flags
 
     raw = dict(loaded.manifest)
     raw.setdefault("state", {})
@@ -128,6 +133,7 @@ def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> Re
         window_s=float(loaded.config.window_s),
         matched=matched,
         notes=tuple(notes),
+        hour_observed=hour_flags(loaded, [t_ns])[0],
     )
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 from aion_cli.formats.outputs import safe_text
 from aion_cli.merge_names import shown_names
+from aion_cli.note_words import EXTRAPOLATED
 from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
 from aion_cli.timeparse import Zone, format_ns
@@ -57,7 +58,7 @@ def render(
     when = (
         "busiest entries as observed (historical)"
         if c.t_ns is None
-        else f"busiest entries predicted at {format_ns(c.t_ns, c.zone)}"
+        else f"busiest entries predicted at {format_ns(c.t_ns, c.zone)}{_mark(c)}"
     )
     parts = [
         "<!DOCTYPE html>",
@@ -266,11 +267,17 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
     return out
 
 
+def _mark(c: ReportContent) -> str:
+    """`` (extrapolated: an hour no log observed)`` after the time of a report whose hour no
+    day observed (as ``aion predict --time``'s table titles it), else nothing."""
+    return f" {EXTRAPOLATED}" if c.hour_observed is False else ""
+
+
 def _busiest(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]:
     what = (
         "as observed (detections per window over the windows each entry was observed)"
         if c.t_ns is None
-        else f"predicted at {escape(format_ns(c.t_ns, c.zone))}"
+        else f"predicted at {escape(format_ns(c.t_ns, c.zone) + _mark(c))}"
     )
     command = f"aion predict --top {len(c.busiest)} " + (
         "--historical" if c.t_ns is None else f'--time "{format_ns(c.t_ns, c.zone)}"'

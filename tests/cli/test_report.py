@@ -12,6 +12,7 @@ import os
 import shutil
 from html.parser import HTMLParser
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -426,3 +427,41 @@ def test_a_weekend_curve_of_a_map_of_weekdays_says_it_follows_the_weekdays(
     (warned,) = [line for line in result.stderr.splitlines() if "no weekend day" in line]
     days = [n for n in content.notes if n.startswith(("Monday", "Saturday"))]
     assert days == [f"Saturday 2026-01-17: {warned}"]
+
+
+@pytest.mark.parametrize(
+    ("when", "seen"), [("2026-11-30 07:00", False), ("2026-11-30 08:05", True)]
+)
+def test_a_report_at_an_hour_no_log_observed_says_its_busiest_and_map_are_extrapolated(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, when: str, seen: bool
+) -> None:
+    """Before: ``report --time 07:00`` on the office map (observed 08:00-08:20 UTC) listed the
+    busiest entries "predicted at 07:00" and drew the map titled with the time alone, as at an
+    hour observed; only the activity curves' grey bands said which hours were extrapolated.
+    Now the page's time, the busiest table's sentence and the map's title say it in the words
+    of ``predict --time``'s table, which ``predict --format json`` agrees with; not at 08:05."""
+    from matplotlib.text import Text
+
+    import aion_cli.pictures.render as render
+
+    figures: list[Any] = []
+    saved = render.save_png
+
+    def keep(fig: Any, out: Path, option: str = "-o") -> Path:
+        figures.append(fig)
+        return saved(fig, out, option)
+
+    monkeypatch.setattr(render, "save_png", keep)
+    out = tmp_path / "report"
+    result = run("report", office.map, "-o", out, "--time", when, "--tz", "UTC", "-q")
+    assert result.exit_code == 0, result.stderr
+    doc = run_json("predict", office.map, "--time", when, "--tz", "UTC", "--format", "json")
+    assert doc["hour_observed"] is seen
+    page = " ".join(html.unescape((out / "index.html").read_text()).split())
+    mark = f"predicted at {doc['time']} (extrapolated: an hour no log observed)"
+    assert page.count(mark) == (0 if seen else 2)  # the page's time, the busiest sentence
+    assert f"predicted at {doc['time']}" in page
+    texts = [" ".join(" ".join(t.get_text() for t in f.findobj(Text)).split()) for f in figures]
+    (text,) = [t for t in texts if t.startswith("office.aion") or " office.aion " in t]
+    assert f"Mon 2026-11-30 {when[-5:]} UTC" in text
+    assert ("(extrapolated: an hour no log observed)" in text) is not seen
