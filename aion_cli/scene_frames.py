@@ -44,7 +44,7 @@ def export_mcap(
     from aion_cli.formats.scene_markers import FRAME
     from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
     from aion_cli.manifest import Manifest
-    from aion_cli.predictions import hour_flags
+    from aion_cli.predictions import hour_flags, observed_text
     from aion_cli.timeparse import format_ns
 
     check_scene_target(out)
@@ -52,6 +52,7 @@ def export_mcap(
     frame = Manifest.from_dict(loaded.manifest).map_frame or FRAME
     scale = series_flow_scale(loaded, times)
     steps = [t for t in times if t is not None]
+    flags = hour_flags(loaded, steps)
     metadata = {
         "map": safe_text(map_path),
         "mode": "predicted" if steps else "historical",
@@ -63,8 +64,13 @@ def export_mcap(
         # the steps at an hour no day observed (their flows extrapolated), comma-separated
         "extrapolated": ", ".join(
             format_ns(t, zone)
-            for t, seen in zip(steps, hour_flags(loaded, steps), strict=True)
+            for t, seen in zip(steps, flags, strict=True)
             if seen is False and zone is not None
+        ),
+        # per step, in order, predict's hour_observed as its CSV writes it (true / false);
+        # empty where not known: historical, or a map that lists no hours
+        "hour_observed": (
+            "" if None in flags else ", ".join(str(observed_text(seen)) for seen in flags)
         ),
     }
     with SceneMcapWriter(out, metadata, frame) as writer:

@@ -349,6 +349,19 @@ def test_the_metadata_names_the_steps_at_hours_no_log_observed(
         "2026-11-23 07:00:00+00:00, 2026-11-23 09:00:00+00:00"
     )
     assert record.metadata["steps"] == "3"
+    # each step's flag in predict's words, as its series JSON and CSV give it
+    series = run_json(
+        "predict", office.map, "--from", "2026-11-23 07:00", "--to", "2026-11-23 09:00",
+        "--step", "1h", "--tz", "UTC", "--format", "json",
+    )
+    assert series["hour_observed"] == [False, True, False]
+    assert record.metadata["hour_observed"] == "false, true, false"
+    past = tmp_path / "past.mcap"
+    assert run("export", office.map, "--historical", "-o", past).exit_code == 0
+    with past.open("rb") as fh:
+        (record,) = [m for m in make_reader(fh).iter_metadata() if m.name == "aion"]
+    assert record.metadata["hour_observed"] == ""  # as observed: no hour to speak of
+    assert record.metadata["extrapolated"] == ""
 
 
 def test_the_metadata_holds_predicts_values_in_full(
