@@ -151,7 +151,7 @@ def _export_one(
     from aion_cli.engine import query
     from aion_cli.entry_columns import entry_columns
     from aion_cli.entry_text import predict_csv, predict_json
-    from aion_cli.predictions import CSV_KEYS, document, hour_flags
+    from aion_cli.predictions import CSV_KEYS, document, hour_flags, scene_about
 
     folder.mkdir(parents=True, exist_ok=True)
     table = (
@@ -161,7 +161,8 @@ def _export_one(
     )
     columns = entry_columns(table)  # every row, in table order: predict's records
     path_rows = None if ends is None else planned_path(loaded, t_ns, ends)
-    files = write_scene(loaded, table, folder, fmt, path_rows, flow_scale)
+    about = scene_about(loaded, t_ns, zone)
+    files = write_scene(loaded, table, folder, fmt, path_rows, flow_scale, about)
     # the text of to_csv / to_json of the records, written a block of entries at a time
     (seen,) = hour_flags(loaded, [t_ns])
     with open(folder / "entries.csv", "w") as fh:
@@ -207,17 +208,21 @@ def write_scene(
     fmt: str,
     path_xyz: Any | None,
     flow_scale: float | None = None,
+    about: Sequence[str] = (),
 ) -> list[Path]:
     """The scene files for one time (``formats.export`` via ``mapquery.export_map``), its
-    spheres sized on ``flow_scale`` (None: the scene's own)."""
+    spheres sized on ``flow_scale`` (None: the scene's own), each header with the comments
+    ``about`` (``predictions.scene_about``: the time, whether its hour was observed)."""
     from aion_cli.mapquery import export_map
 
-    return export_map(loaded, table, folder, fmt, path_xyz, flow_scale=flow_scale)
+    return export_map(loaded, table, folder, fmt, path_xyz, flow_scale=flow_scale, about=about)
 
 
-def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) -> None:
-    """The whole scene at ``t_ns`` with a planned path, as the one PLY file ``out``
-    (``aion plan --export``; see :func:`export_scene_file`)."""
+def export_plan_scene(
+    loaded: Any, t_ns: int, nav: Any, path: Any, out: Path, zone: Zone | None = None
+) -> None:
+    """The whole scene at ``t_ns`` (said in ``zone`` in its header) with a planned path, as
+    the one PLY file ``out`` (``aion plan --export``; see :func:`export_scene_file`)."""
     from aion_cli.errors import InputError
 
     if out.suffix.lower() != ".ply":
@@ -225,7 +230,7 @@ def export_plan_scene(loaded: Any, t_ns: int, nav: Any, path: Any, out: Path) ->
             f"--export writes a .ply file, got {out.name!r}",
             hint=f"name it {out.with_suffix('.ply').name}",
         )
-    export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path])
+    export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path], zone)
 
 
 SCENE_FORMATS = ("ply", "pcd")
@@ -238,14 +243,21 @@ def scene_file(fmt: str, out: Path) -> bool:
 
 
 def export_scene_file(
-    loaded: Any, t_ns: int | None, out: Path, fmt: str, path_xyz: Any | None
+    loaded: Any,
+    t_ns: int | None,
+    out: Path,
+    fmt: str,
+    path_xyz: Any | None,
+    zone: Zone | None = None,
 ) -> Path:
-    """The whole scene at ``t_ns`` (None: as observed), with the path ``path_xyz`` if given,
-    as the one PLY or PCD file ``out``: written beside ``out`` and renamed into place; an
-    existing ``out`` is replaced only when an export wrote it (never a device, FIFO, or a
-    PLY / PCD file of someone else's)."""
+    """The whole scene at ``t_ns`` (None: as observed; its header says the time in ``zone``
+    and whether its hour was observed), with the path ``path_xyz`` if given, as the one PLY
+    or PCD file ``out``: written beside ``out`` and renamed into place; an existing ``out``
+    is replaced only when an export wrote it (never a device, FIFO, or a PLY / PCD file of
+    someone else's)."""
     from aion_cli.engine import query
     from aion_cli.errors import InputError
+    from aion_cli.predictions import scene_about
 
     check_scene_file(out, fmt)
     table = (
@@ -256,7 +268,9 @@ def export_scene_file(
     with naming(out), Staged(out) as staged:
         scratch = staged.folder / "scene"  # the other files are dropped with the staging
         scratch.mkdir()
-        files = write_scene(loaded, table, scratch, fmt, path_xyz)
+        files = write_scene(
+            loaded, table, scratch, fmt, path_xyz, about=scene_about(loaded, t_ns, zone)
+        )
         scene = [f for f in files if f.name == f"scene.{fmt}"]
         if not scene:  # a map without places, cells or mesh: no part, no scene file
             raise InputError(
@@ -442,7 +456,7 @@ def write_export(
             return Exported([export_mcap(loaded, label, out, times, zone, ends, on_frame)])
         if scene_file(fmt, out):
             path_xyz = None if ends is None else planned_path(loaded, times[0], ends)
-            written = export_scene_file(loaded, times[0], out, fmt, path_xyz)
+            written = export_scene_file(loaded, times[0], out, fmt, path_xyz, zone)
             if on_frame is not None:
                 on_frame()
             return Exported([written])

@@ -8,7 +8,7 @@ an entry table to ``formats.export``.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -261,11 +261,13 @@ def export_map(
     path_xyz: np.ndarray | None = None,
     prefix: str = "",
     flow_scale: float | None = None,
+    about: Sequence[str] = (),
 ) -> list[Path]:
     """Write the scene of an entry table (nodes, cells, edges, mesh, a path) with
     ``formats.export.export_scene``; returns the files written. The arrays are gathered by
     ``aion_cli.scene.scene_of_table``, as for the other pictures of a map. ``flow_scale``: the
-    flow drawn at full size (a series' one scale); None: this scene's own."""
+    flow drawn at full size (a series' one scale); None: this scene's own. ``about``: the
+    files' header comments (``predictions.scene_about``)."""
     from aion_cli.formats.export import export_scene
     from aion_cli.scene import scene_of_table
 
@@ -288,6 +290,7 @@ def export_map(
         node_concentration=scene.node_concentration,
         flow_scale=flow_scale,
         cells_dominant_angle=scene.cells_angle,
+        about=about,
     )
 
 

@@ -182,6 +182,26 @@ def hour_flags(loaded: LoadedMap, times_ns: Sequence[int | None]) -> list[bool |
     return [None if t is None else next(it) for t in times_ns]
 
 
+def scene_about(loaded: LoadedMap, t_ns: int | None, zone: Zone | None) -> list[str]:
+    """What a PLY / PCD scene's header says of its forecast (its comments after aion's
+    marker; the file has no JSON document): ``aion mode``, ``aion time``, ``aion zone`` and
+    ``aion hour_observed`` as :func:`document` gives them (the time in ``zone``, UTC without
+    one; the flag ``true`` / ``false``, left out where not known), ``aion mode historical``
+    alone as observed."""
+    from aion_cli.timeparse import format_ns, resolve_zone
+
+    if t_ns is None:
+        return ["aion mode historical"]
+    where = zone if zone is not None else resolve_zone("UTC")
+    lines = [
+        "aion mode predicted",
+        f"aion time {format_ns(t_ns, where)}",
+        f"aion zone {where.name}",
+    ]
+    seen = observed_text(hour_flags(loaded, [t_ns])[0])
+    return lines if seen is None else [*lines, f"aion hour_observed {seen}"]
+
+
 def predicted_records(
     loaded: LoadedMap,
     t_ns: int | None,

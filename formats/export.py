@@ -40,6 +40,7 @@ so exporting 10^4 nodes does not build 10^4 open3d objects.
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -134,10 +135,10 @@ def _o3d_points(xyz: F64, colors: F64, normals: F64 | None = None) -> Any:
     return pc
 
 
-def _write(path: Path, kind: str, geometry: Any) -> Path:
+def _write(path: Path, kind: str, geometry: Any, about: Sequence[str] = ()) -> Path:
     """Write ``geometry`` with open3d beside ``path`` (a hidden name of the same suffix, which
-    chooses the format), then check it complete and mark it as aion's
-    (:func:`formats.scene_files.seal`): open3d's return value misses a full disk."""
+    chooses the format), then check it complete and mark it as aion's, with the comments
+    ``about`` (:func:`formats.scene_files.seal`): open3d's return value misses a full disk."""
     from aion_cli.formats.scene_files import native_stderr_quiet, seal
 
     o3d = open3d()
@@ -155,7 +156,7 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
         raise ExportWriteError(
             f"cannot write {path}", hint="check that the output folder is writable"
         )
-    return seal(raw, path)
+    return seal(raw, path, about)
 
 
 # -- the scene -------------------------------------------------------------------------------
@@ -190,6 +191,7 @@ def export_scene(
     node_concentration: npt.ArrayLike | None = None,
     flow_scale: float | None = None,
     cells_dominant_angle: npt.ArrayLike | None = None,
+    about: Sequence[str] = (),
 ) -> list[Path]:
     """Write the scene's parts (and a combined scene) to ``out_dir``; returns the files written.
 
@@ -201,6 +203,8 @@ def export_scene(
     ``edges_xyz_pairs`` f64[k,2,3] (or [k,6]) segment end points, ``path_xyz`` f64[p,3] a
     planned path. ``flow_scale`` is the flow drawn at full size
     (default: the largest node flow, so the busiest node has radius δ). ``out_dir`` is created.
+    ``about``: lines every file's header carries as comments after aion's marker (the time of
+    the scene, whether its hour was observed: :func:`formats.scene_files.header_comments`).
     """
     if fmt not in ("ply", "pcd"):
         raise ExportError(f"export format must be 'ply' or 'pcd', got {fmt!r}")
@@ -246,13 +250,14 @@ def export_scene(
             hint="choose a writable output folder",
         ) from exc
     if fmt == "ply":
-        return _write_ply(out, prefix, scene, cell_size)
+        return _write_ply(out, prefix, scene, cell_size, about)
     return _write_pcd(
         out,
         prefix,
         scene,
         (xyz, colors, _direction_normals(style.angle)),
         (style.cells_xyz, style.cell_colors, _direction_normals(style.cells_angle)),
+        about,
     )
 
 
@@ -260,10 +265,12 @@ SCENE_PARTS = ("nodes", "arrows", "cells", "mesh", "edges", "path", "scene")
 """The names of the scene files an export may write (``<part>.ply`` / ``<part>.pcd``)."""
 
 
-def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[Path]:
+def _write_ply(
+    out: Path, prefix: str, scene: _Scene, cell_size: float, about: Sequence[str] = ()
+) -> list[Path]:
     """The PLY files of ``scene``, written from its arrays by :mod:`formats.ply_files` (the
-    bytes open3d wrote, marked); ``scene.ply`` streams every part, the edges and the path as
-    tubes, without concatenating them."""
+    bytes open3d wrote, marked, with the comments ``about``); ``scene.ply`` streams every
+    part, the edges and the path as tubes, without concatenating them."""
     from aion_cli.formats.ply_files import write_lines, write_mesh
 
     open3d()  # a PLY export needs open3d (the templates), whatever the scene holds
@@ -275,16 +282,17 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
         ("mesh", scene.mesh),
     ):
         if tri.counts()[0]:
-            written.append(write_mesh(out / f"{prefix}{part}.ply", [tri]))
+            written.append(write_mesh(out / f"{prefix}{part}.ply", [tri], about))
     k = len(scene.edges)
     if k:
         pts = scene.edges.reshape(-1, 3)
         lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
-        written.append(write_lines(out / f"{prefix}edges.ply", pts, lines, EDGE_GREY))
+        written.append(write_lines(out / f"{prefix}edges.ply", pts, lines, EDGE_GREY, about))
     p = len(scene.path)
     if p >= 2:
         lines = np.stack([np.arange(p - 1), np.arange(1, p)], axis=1)
-        written.append(write_lines(out / f"{prefix}path.ply", scene.path, lines, PATH_GREEN))
+        path_file = out / f"{prefix}path.ply"
+        written.append(write_lines(path_file, scene.path, lines, PATH_GREEN, about))
     parts: list[TriMesh | Instanced] = [
         scene.mesh,
         scene.cells,
@@ -296,7 +304,7 @@ def _write_ply(out: Path, prefix: str, scene: _Scene, cell_size: float) -> list[
         else TriMesh.empty(),
     ]
     if any(part.counts()[0] for part in parts):
-        written.append(write_mesh(out / f"{prefix}scene.ply", parts))
+        written.append(write_mesh(out / f"{prefix}scene.ply", parts, about))
     return written
 
 
@@ -314,9 +322,11 @@ def _write_pcd(
     scene: _Scene,
     nodes: tuple[F64, F64, F64],
     cells: tuple[F64, F64, F64],
+    about: Sequence[str] = (),
 ) -> list[Path]:
     """``nodes`` / ``cells``: points, colours and normals (dominant directions, 0 where
-    none); the mesh and the path have none (0), and ``scene.pcd`` holds every part."""
+    none); the mesh and the path have none (0), and ``scene.pcd`` holds every part; each
+    file's header with the comments ``about``."""
     path_colors = np.tile(np.asarray(PATH_GREEN), (len(scene.path), 1))
     mesh_xyz = np.asarray(scene.mesh.vertices, dtype=np.float64).reshape(-1, 3)
     clouds = [
@@ -330,7 +340,9 @@ def _write_pcd(
         if len(pts):
             normals = nrm if part in ("nodes", "cells") else None
             written.append(
-                _write(out / f"{prefix}{part}.pcd", "points", _o3d_points(pts, cols, normals))
+                _write(
+                    out / f"{prefix}{part}.pcd", "points", _o3d_points(pts, cols, normals), about
+                )
             )
     all_pts = np.concatenate([c[1] for c in clouds])
     if len(all_pts):
@@ -338,7 +350,10 @@ def _write_pcd(
         all_normals = np.concatenate([c[3] for c in clouds])
         written.append(
             _write(
-                out / f"{prefix}scene.pcd", "points", _o3d_points(all_pts, all_cols, all_normals)
+                out / f"{prefix}scene.pcd",
+                "points",
+                _o3d_points(all_pts, all_cols, all_normals),
+                about,
             )
         )
     return written

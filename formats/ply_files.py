@@ -29,7 +29,7 @@ from typing import BinaryIO, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.formats.scene_files import PLY_MARKER, writing
+from aion_cli.formats.scene_files import PLY_MARKER, header_comments, writing
 
 F64 = npt.NDArray[np.float64]
 
@@ -60,10 +60,11 @@ def colour_bytes(colors: npt.ArrayLike) -> npt.NDArray[np.uint8]:
     return np.floor(scaled + 0.5).astype(np.uint8)
 
 
-def write_mesh(path: Path, parts: Sequence[MeshPart]) -> Path:
+def write_mesh(path: Path, parts: Sequence[MeshPart], about: Sequence[str] = ()) -> Path:
     """The triangle mesh of ``parts`` concatenated (those without vertices left out, faces
     offset by the vertices before them) as the PLY file ``path``: what open3d wrote for
-    ``TriMesh.concat(parts)``, marked. Colours are written when the parts hold as many
+    ``TriMesh.concat(parts)``, marked (with the comments ``about`` after the marker, as
+    ``scene_files.seal`` writes them). Colours are written when the parts hold as many
     colours as vertices in all, as open3d's mesh then had them."""
     parts = [p for p in parts if p.counts()[0]]
     counts = [p.counts() for p in parts]
@@ -71,6 +72,7 @@ def write_mesh(path: Path, parts: Sequence[MeshPart]) -> Path:
     coloured = sum(c[2] for c in counts) == vertices
     header = (
         _HEAD
+        + header_comments(about, ply=True)
         + b"element vertex %d\n" % vertices
         + _XYZ
         + (_RGB if coloured else b"")
@@ -96,13 +98,19 @@ def write_mesh(path: Path, parts: Sequence[MeshPart]) -> Path:
 
 
 def write_lines(
-    path: Path, points: F64, lines: npt.ArrayLike, color: tuple[float, float, float]
+    path: Path,
+    points: F64,
+    lines: npt.ArrayLike,
+    color: tuple[float, float, float],
+    about: Sequence[str] = (),
 ) -> Path:
     """The line set of ``points`` and ``lines`` (index pairs), every line ``color``, as the
-    PLY file ``path``: what open3d's ``write_line_set`` wrote, marked."""
+    PLY file ``path``: what open3d's ``write_line_set`` wrote, marked (and ``about``, as
+    :func:`write_mesh`)."""
     pairs = np.asarray(lines, dtype=np.int64).reshape(-1, 2)
     header = (
         _HEAD
+        + header_comments(about, ply=True)
         + b"element vertex %d\n" % len(points)
         + _XYZ
         + b"element edge %d\n" % len(pairs)

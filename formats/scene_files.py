@@ -18,7 +18,7 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import BinaryIO
 
@@ -79,10 +79,22 @@ def writing(path: Path) -> Iterator[BinaryIO]:
         raise
 
 
-def seal(raw: Path, out: Path) -> Path:
+def header_comments(about: Sequence[str], ply: bool) -> bytes:
+    """The lines ``about`` (what aion says of a scene: its time, whether that hour was
+    observed) as header comments after the marker: PLY ``comment`` lines, PCD ``#`` lines;
+    ASCII, a character outside it written as ``?``, a line break as a space."""
+    start = b"comment " if ply else b"# "
+    return b"".join(
+        start + " ".join(line.splitlines()).encode("ascii", "replace") + b"\n"
+        for line in about
+    )
+
+
+def seal(raw: Path, out: Path, about: Sequence[str] = ()) -> Path:
     """Check the PLY or PCD file ``raw`` (as open3d wrote it) is complete, then write it to
-    ``out`` with aion's marker in its header and remove ``raw``. A file of another size than
-    its header declares is an :class:`ExportWriteError` (``out`` not written)."""
+    ``out`` with aion's marker in its header (and the comments ``about``:
+    :func:`header_comments`) and remove ``raw``. A file of another size than its header
+    declares is an :class:`ExportWriteError` (``out`` not written)."""
     from aion_cli.formats.export import ExportWriteError
 
     try:
@@ -105,7 +117,7 @@ def seal(raw: Path, out: Path) -> Path:
             src.seek(0)
             with writing(out) as dst:
                 dst.write(src.read(at))
-                dst.write(marker)
+                dst.write(marker + header_comments(about, marker is PLY_MARKER))
                 shutil.copyfileobj(src, dst, 1 << 20)
     except OSError as exc:  # reading ``raw`` (``writing`` converts its own errors)
         raise write_failed(out, exc) from exc

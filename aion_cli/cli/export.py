@@ -42,8 +42,9 @@ Examples:
 \b
 Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entropy, blue low
 to red high, arrows along the dominant direction, flat squares for hash cells, edges as
-lines, the scene graph's mesh, a planned path) as PLY or PCD, plus entries.csv and
-entries.json with the same fields as `aion predict`. --from/--to/--step writes one
+lines, the scene graph's mesh, a planned path) as PLY or PCD (their headers' comments give
+the time and hour_observed, as the JSON does), plus entries.csv and entries.json with the same
+fields as `aion predict`. --from/--to/--step writes one
 subfolder per time (named by the time in UTC, e.g. 20261123T060000Z) for animations, a series of
 one time (--from T --to T) too; --to is included when it falls on a step, and a step of days
 or weeks (1d, 1w) keeps the wall-clock time across a daylight-saving change.

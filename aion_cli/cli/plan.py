@@ -195,7 +195,7 @@ def command(
     if export_path is not None:
         from aion_cli.exports import export_plan_scene
 
-        export_plan_scene(loaded, t_ns, nav, temporal.rows, export_path)
+        export_plan_scene(loaded, t_ns, nav, temporal.rows, export_path, zone)
         report["export"] = str(export_path)
     if png_path is not None:
         from aion_cli.pictures.render import plan_png

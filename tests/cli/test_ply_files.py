@@ -44,12 +44,13 @@ def _o3d_lines(points: Any, lines: Any, color: tuple[float, float, float]) -> An
     return ls
 
 
-def _write(path: Path, kind: str, geometry: Any) -> Path:
+def _write(path: Path, kind: str, geometry: Any, about: Any = ()) -> Path:
     o3d = open3d()
     writer = o3d.io.write_triangle_mesh if kind == "mesh" else o3d.io.write_line_set
     raw = path.with_name(f".open3d.{path.name}")
     assert writer(str(raw), geometry, write_ascii=False)
-    sealed = seal(raw, path)  # open3d's bytes, but for the comment naming it, which aion's omit
+    sealed = seal(raw, path, about)  # open3d's bytes, but for the comment naming it, which
+    # aion's omit
     data = sealed.read_bytes()
     header_end = data.index(b"end_header\n")
     ours = data[:header_end].replace(b"comment Created by Open3D\n", b"", 1) + data[header_end:]
@@ -58,25 +59,29 @@ def _write(path: Path, kind: str, geometry: Any) -> Path:
     return sealed
 
 
-def reference_write_ply(out: Path, prefix: str, scene: Any, cell_size: float) -> list[Path]:
-    """The open3d ``_write_ply`` the numpy writer replaced."""
+def reference_write_ply(
+    out: Path, prefix: str, scene: Any, cell_size: float, about: Any = ()
+) -> list[Path]:
+    """The open3d ``_write_ply`` the numpy writer replaced (``about``: the header comments
+    after aion's marker, which ``seal`` writes as it writes them)."""
     written: list[Path] = []
     nodes, arrows = scene.nodes.mesh(), scene.arrows.mesh()  # the TriMeshes of before
     for part, tri in (("nodes", nodes), ("arrows", arrows), ("cells", scene.cells),
                       ("mesh", scene.mesh)):
         if len(tri.vertices):
-            written.append(_write(out / f"{prefix}{part}.ply", "mesh", _o3d_mesh(tri)))
+            written.append(_write(out / f"{prefix}{part}.ply", "mesh", _o3d_mesh(tri), about))
     k = len(scene.edges)
     if k:
         pts = scene.edges.reshape(-1, 3)
         lines = np.arange(2 * k, dtype=np.int64).reshape(k, 2)
         written.append(
-            _write(out / f"{prefix}edges.ply", "lines", _o3d_lines(pts, lines, EDGE_GREY)))
+            _write(out / f"{prefix}edges.ply", "lines", _o3d_lines(pts, lines, EDGE_GREY), about))
     p = len(scene.path)
     if p >= 2:
         lines = np.stack([np.arange(p - 1), np.arange(1, p)], axis=1)
         written.append(
-            _write(out / f"{prefix}path.ply", "lines", _o3d_lines(scene.path, lines, PATH_GREEN)))
+            _write(out / f"{prefix}path.ply", "lines", _o3d_lines(scene.path, lines, PATH_GREEN),
+                   about))
     combined = TriMesh.concat([
         scene.mesh, scene.cells, nodes, arrows,
         tubes(scene.edges[:, 0], scene.edges[:, 1], 0.03 * cell_size, EDGE_GREY),
@@ -84,7 +89,7 @@ def reference_write_ply(out: Path, prefix: str, scene: Any, cell_size: float) ->
         if p >= 2 else TriMesh.empty(),
     ])
     if len(combined.vertices):
-        written.append(_write(out / f"{prefix}scene.ply", "mesh", _o3d_mesh(combined)))
+        written.append(_write(out / f"{prefix}scene.ply", "mesh", _o3d_mesh(combined), about))
     return written
 
 
@@ -134,6 +139,13 @@ def test_made_up_meshes_and_lines(tmp_path: Path, rows: int, colours: str) -> No
         ply_files.write_mesh(new, chosen)
         _write(old, "mesh", _o3d_mesh(TriMesh.concat(chosen)))
         assert new.read_bytes() == old.read_bytes()
+    about = ["aion time 2026-11-30 07:00:00+00:00", "aion zone Zürich\nline"]  # odd on purpose
+    ply_files.write_mesh(tmp_path / "about-new.ply", parts, about)
+    _write(tmp_path / "about-old.ply", "mesh", _o3d_mesh(TriMesh.concat(parts)), about)
+    written = (tmp_path / "about-new.ply").read_bytes()
+    assert written == (tmp_path / "about-old.ply").read_bytes()
+    assert b"comment written by aion export\ncomment aion time 2026-11-30 07:00:00+00:00\n" \
+        b"comment aion zone Z?rich line\nelement vertex" in written  # ASCII, one line each
     points = rng.normal(0, 10, (12, 3))
     lines = np.stack([np.arange(11), np.arange(1, 12)], axis=1)
     ply_files.write_lines(tmp_path / "l-new.ply", points, lines, (0.2, 0.5, 0.77))
