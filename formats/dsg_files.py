@@ -163,9 +163,7 @@ def read_dsg_file(path: str | Path) -> GraphFile:
             _memory_budget(size) as budget,
             _as_suffix(p, suffix) as name,
         ):
-            return GraphFile(
-                p, spark_dsg.DynamicSceneGraph.load(name), version=version, read_as=suffix
-            )
+            graph = spark_dsg.DynamicSceneGraph.load(name)
     except (RuntimeError, ValueError, IndexError, TypeError, MemoryError) as exc:
         if suffix != ".json":
             why = _short(exc)
@@ -177,6 +175,10 @@ def read_dsg_file(path: str | Path) -> GraphFile:
                 hint="expected a spark_dsg graph saved by Hydra (dsg.json / .sparkdsg)",
             ) from exc
         refused = _short(exc)
+    else:
+        if suffix == ".json":
+            _restore_legacy_stamps(p, graph, version)
+        return GraphFile(p, graph, version=version, read_as=suffix)
     from aion_cli.formats.dsg_json import read_lenient
 
     got = read_lenient(p)
@@ -192,6 +194,28 @@ def read_dsg_file(path: str | Path) -> GraphFile:
         version=version,
         read_as=suffix,
     )
+
+
+def _restore_legacy_stamps(path: Path, graph: Any, version: str | None) -> None:
+    """The agent stamps spark_dsg leaves 0 in a JSON file written before spark_dsg 1.1.0
+    (:func:`formats.dsg_json.restore_agent_stamps`), read from the file's own JSON. Files of
+    other versions, and graphs without agent poses, are not parsed a second time."""
+    from aion_cli.formats.dsg_json import restore_agent_stamps, stamps_beside_attributes
+
+    if not stamps_beside_attributes(version):
+        return
+    if not any(int(v.partition) != 0 and v.num_nodes() for v in graph.layer_partitions):
+        return
+    import json
+
+    try:
+        doc = json.loads(path.read_bytes().decode("utf-8-sig"))
+    except (OSError, ValueError, RecursionError, MemoryError) as exc:
+        raise GraphFileError(
+            f"cannot read scene-graph file {path}: its agent stamps cannot be read ({exc})"
+        ) from exc
+    if isinstance(doc, dict):
+        restore_agent_stamps(graph, doc)
 
 
 def _suffix_by_content(path: Path, suffix: str) -> str:

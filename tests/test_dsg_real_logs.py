@@ -1,0 +1,102 @@
+"""The real Hydra graphs put into logs as ``hydra_msgs/DsgUpdate`` messages, as Hydra publishes
+them (the whole graph, mesh included, ``full_update`` true), with aion's own log writer: a
+build of the log must take the graph the file holds. Each map's graph is checked against the
+file's JSON (:mod:`tests.dsg_real_files`, read with :mod:`json` alone) and against a build of
+the same detections with ``--graph FILE``: every ``graph_*`` member equal."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.state import MapState
+from aion_cli.formats import dsg as fdsg
+from aion_cli.formats.mapfile import read_map
+from aion_cli.formats.writers import LogWriter
+from aion_cli.pipeline import BuildOptions, build_map
+from tests.dsg_real_files import FILES, assert_reads_the_file, from_json
+from tests.shared_data import real
+
+S = 10**9
+T0 = 1_767_607_200 * S  # 2026-01-05 10:00 UTC
+
+
+def _write_log(path: Path, payload: bytes | None, people: np.ndarray) -> Path:
+    """40 s: people standing at ``people`` every second (map frame), the robot at the origin
+    in TF every 5 s, and the graph (when ``payload``) every 10 s on Hydra's backend topic."""
+    with LogWriter(path, "mcap") as writer:
+        for s in range(40):
+            t = T0 + s * S
+            if payload is not None and s % 10 == 0:
+                writer.write(
+                    "/hydra/backend/dsg",
+                    "hydra_msgs/msg/DsgUpdate",
+                    {
+                        "header": {"stamp": {"sec": t // S}, "frame_id": "map"},
+                        "layer_contents": np.frombuffer(payload, np.uint8),
+                        "full_update": True,
+                    },
+                    t,
+                )
+            if s % 5 == 0:
+                tf = {
+                    "header": {"stamp": {"sec": t // S}, "frame_id": "map"},
+                    "child_frame_id": "base_link",
+                    "transform": {"translation": {"x": 0.0}, "rotation": {"w": 1.0}},
+                }
+                writer.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [tf]}, t)
+            tracks = [
+                {
+                    "track_id": k + 1,
+                    "is_matched": True,
+                    "pose": {
+                        "pose": {
+                            "position": {"x": float(x), "y": float(y), "z": float(z)},
+                            "orientation": {"w": 1.0},
+                        }
+                    },
+                }
+                for k, (x, y, z) in enumerate(people)
+            ]
+            stamp = {"sec": (t + S // 2) // S, "nanosec": S // 2}
+            writer.write(
+                "/tracks",
+                "spencer_tracking_msgs/msg/TrackedPersons",
+                {"header": {"stamp": stamp, "frame_id": "map"}, "tracks": tracks},
+                t + S // 2,
+            )
+    return path
+
+
+def _graph_members(path: Path) -> tuple[dict[str, np.ndarray], Any]:
+    arrays, manifest = read_map(path)
+    graph = MapState.from_arrays(arrays, manifest["state"]).graph
+    return {k: v for k, v in arrays.items() if k.startswith("graph_")}, graph
+
+
+@pytest.mark.parametrize("name", FILES)
+def test_graph_in_a_dsg_update_log_builds_as_the_file(name: str, tmp_path: Path) -> None:
+    path = real("dsg", name)
+    want = from_json(path)
+    payload = bytes(fdsg.read_dsg_file(path).graph.to_binary(True))
+    people = np.array(sorted(want.places.values())[:3])  # three people at three places
+    streamed = _write_log(tmp_path / "stream.mcap", payload, people)
+    plain = _write_log(tmp_path / "plain.mcap", None, people)
+
+    every_graph = BuildOptions(logs=(streamed,), output=tmp_path / "a.aion", graph_period_ns=0)
+    report = build_map(every_graph)
+    assert report.graph_source == "log"
+    assert report.graph_messages == 4  # all four graphs applied, none skipped
+    assert report.graph_skipped == 0
+    build_map(BuildOptions(logs=(plain,), output=tmp_path / "b.aion", graph_file=path))
+
+    members_a, graph_a = _graph_members(tmp_path / "a.aion")
+    members_b, _ = _graph_members(tmp_path / "b.aion")
+    assert sorted(members_a) == sorted(members_b)
+    for key, value in members_a.items():
+        assert value.dtype == members_b[key].dtype, key
+        np.testing.assert_array_equal(value, members_b[key], err_msg=key)
+    assert_reads_the_file(graph_a, want)
