@@ -290,16 +290,19 @@ def load_graph_file(
     return load_graph(path, t_ns, layer).snapshot
 
 
-def graph_payload(path: str | Path) -> tuple[bytes, int]:
+def graph_payload(path: str | Path) -> tuple[bytes, int, tuple[str, ...]]:
     """spark_dsg binary of a graph file, mesh included, as Hydra publishes it, for a log that
-    ``aion convert`` writes, and the number of agent poses left out of it. A graph Hydra saved
+    ``aion convert`` writes, the number of agent poses left out of it and what the user must
+    be told of the reading (:meth:`GraphFile.notes`: a file read leniently, what was skipped,
+    as ``build --graph`` and ``info`` say it). A graph Hydra saved
     carries its own robot's trajectory in the agent layer, stamped at the times of its own
     recording; a dataset has no robot, and a build would take those poses as the sensor's
     observation instead of the log's messages and ``--observed`` spans (a fixed sensor), so
     the partitions of the agent layer are removed."""
     from aion_cli.formats.dsg_layers import AGENTS_LAYER
 
-    graph = load_dsg_file(path)
+    file = read_dsg_file(path)
+    graph = file.graph
     key = graph.get_layer_key("AGENTS")
     layer = int(key.layer) if key is not None else AGENTS_LAYER
     dropped = 0
@@ -308,4 +311,4 @@ def graph_payload(path: str | Path) -> tuple[bytes, int]:
             dropped += int(view.num_nodes())
             graph.remove_layer(layer, view.partition)
     payload: bytes = graph.to_binary(True)
-    return payload, dropped
+    return payload, dropped, tuple(file.notes())

@@ -63,6 +63,8 @@ class TracksLogSummary:
     last_detection_ns: int | None = None
     #: robot poses of the graph file's agent layer left out of the log's scene graph
     graph_agents_dropped: int = 0
+    #: what reading the graph file said (a file read leniently and what it skipped)
+    graph_notes: tuple[str, ...] = ()
     #: rows left out for repeating an earlier row's time and track id (of them elsewhere)
     repeated_rows: int = 0
     repeated_elsewhere: int = 0
@@ -375,7 +377,9 @@ def _write_tracks(
     _check_log_times(marks, "the observed spans")
     if len(marks):
         check_stamps(int(marks.max()), container, "the observed spans")
-    payload, agents = graph_payload(graph_file) if graph_file is not None else (None, 0)
+    payload, agents, graph_notes = (
+        graph_payload(graph_file) if graph_file is not None else (None, 0, ())
+    )
     rows = groups = 0
     track_ids = np.zeros(0, np.int64)
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
@@ -437,6 +441,7 @@ def _write_tracks(
         first_detection_ns=t0,
         last_detection_ns=last_detection,
         graph_agents_dropped=agents,
+        graph_notes=graph_notes,
         repeated_rows=repeats.rows,
         repeated_elsewhere=repeats.elsewhere,
         far_rows=far.rows,

@@ -315,6 +315,8 @@ def command(
             "leaves them out (its spatial hash ends there at the default cell_size)"
         )
     _warn_stray_times(tracks.name, summary.topic_times, zone)
+    for text in summary.graph_notes:  # a graph file read leniently: what was skipped
+        note(text)
     if summary.graph_agents_dropped:
         note(
             f"{graph_file}: its agent layer ({summary.graph_agents_dropped:,} robot "

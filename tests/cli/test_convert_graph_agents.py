@@ -34,3 +34,25 @@ def test_graph_agent_layer_is_left_out_of_a_converted_dataset(tmp_path: Path) ->
     # before: "scene-graph agent layer" (the apartment robot's poses of another time) and
     # the declared three hours ignored
     assert report["observation"].startswith("fixed sensor over the 18 windows"), report
+
+
+def test_graph_read_leniently_is_said(tmp_path: Path) -> None:
+    """A graph file spark_dsg refuses is read leniently by convert as by build and info, and
+    convert says what it skipped (it said nothing: the log's graph silently lacked them)."""
+    import json
+
+    doc = json.loads(real("dsg", "apartment_dsg.json").read_text())
+    info = {"type": "EdgeAttributes", "weight": 1.0, "weighted": True}
+    doc["edges"].append(  # to a place the file does not hold
+        {"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"], "info": info}
+    )
+    graph = tmp_path / "dangling.json"
+    graph.write_text(json.dumps(doc))
+    result = run(
+        "convert", _tracks(tmp_path / "tracks.csv"), "-o", tmp_path / "tracks.mcap",
+        "--graph", graph,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert "dangling.json: spark_dsg refused it (failed to add p(99999)" in result.stderr
+    assert "read leniently: 1 dangling edge skipped" in result.stderr
+    assert "its agent layer (102 robot poses" in result.stderr

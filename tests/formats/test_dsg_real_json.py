@@ -66,7 +66,10 @@ def test_legacy_agent_stamps_are_the_files() -> None:
 def test_legacy_stamps_of_a_file_read_leniently(tmp_path: Path) -> None:
     """A legacy file spark_dsg refuses (one dangling edge here) keeps its agent stamps too."""
     doc = json.loads(real("dsg", "apartment_dsg.json").read_text())
-    doc["edges"].append({"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"]})
+    info = {"type": "EdgeAttributes", "weight": 1.0, "weighted": True}
+    doc["edges"].append(  # to a place the file does not hold
+        {"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"], "info": info}
+    )
     path = tmp_path / "dangling.json"
     path.write_text(json.dumps(doc))
     loaded = fdsg.load_graph(path)
