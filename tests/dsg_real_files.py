@@ -37,6 +37,9 @@ class FromJson:
     buildings: set[int]
     agent_ns: np.ndarray  # sorted stamps as the file gives them
     agent_xyz: np.ndarray  # in the order of agent_ns
+    #: nodes per layer key as spark_dsg names keys (``"2"``, ``"2[97]"``: a legacy node with a
+    #: ``timestamp`` is in the partition of its symbol's category, the robot's prefix)
+    layer_counts: dict[str, int]
 
 
 def from_json(path: Path) -> FromJson:
@@ -63,6 +66,10 @@ def from_json(path: Path) -> FromJson:
             if layer[up] == layer[child] + 1 and layer[child] in (3, 4):
                 assert child not in parent, "a place or room with two parents"
                 parent[child] = up
+    layer_counts: dict[str, int] = {}
+    for i, n in nodes.items():
+        key = f"{n['layer']}[{i >> 56}]" if "timestamp" in n else str(n["layer"])
+        layer_counts[key] = layer_counts.get(key, 0) + 1
     agents = [n for n in nodes.values() if n["layer"] == 2 and "timestamp" in n]
     order = sorted(range(len(agents)), key=lambda k: agents[k]["timestamp"])
     return FromJson(
@@ -73,6 +80,7 @@ def from_json(path: Path) -> FromJson:
         buildings=buildings,
         agent_ns=np.array([agents[k]["timestamp"] for k in order], np.int64),
         agent_xyz=np.array([agents[k]["attributes"]["position"] for k in order], np.float64),
+        layer_counts=layer_counts,
     )
 
 
