@@ -121,7 +121,8 @@ def _unused_pointer(report: dict[str, Any]) -> str:
     "--tz",
     metavar="ZONE",
     help="Logs: the zone of the hours with messages of a fixed sensor (IANA name, UTC, "
-    "+01:00, local) [default: UTC, as aion build reads them without --tz].",
+    "+01:00, local) [default: the zone the logs declare (aion convert or simulate --tz), "
+    "else UTC, as aion build reads them without --tz].",
 )
 @nav_layer_option
 @format_option(choices=("table", "json"))
@@ -193,6 +194,10 @@ def command(
     from aion_cli.timeparse import resolve_zone
 
     zone = "UTC" if tz is None else resolve_zone(tz).name  # a bad zone: before any reading
+    if tz is None:  # the zone aion build follows without --tz: the one the logs declare
+        from aion_cli.log_zone import build_zone
+
+        zone = build_zone(None, None, list(logs))[0] or "UTC"
     report = describe(list(logs), log_format, detections_mapping, zone, verify)
     if fmt == "json":
         click.echo(to_json(report))

@@ -22,3 +22,32 @@ def test_info_names_the_zone_simulate_wrote(tmp_path: Path, container: str) -> N
     table = run("info", log)
     assert table.exit_code == 0, table.stderr
     assert f"note: {log.name} declares the time zone Asia/Tokyo" in table.stderr
+
+
+def test_a_fixed_sensors_hours_are_in_the_zone_the_log_declares(tmp_path: Path) -> None:
+    """A log converted with ``--tz Europe/Berlin`` is built in Berlin's hours without
+    ``--tz``, so ``info`` without ``--tz`` gives its hours with messages in Berlin's hours too
+    (it gave them in UTC: 06:00-07:00 where the map the build then wrote says 07:00-08:00);
+    ``--tz UTC`` still gives UTC's. People walk 07:00-07:20 Berlin time on Friday
+    2026-03-27 (06:00 UTC, computed here with zoneinfo)."""
+    from datetime import datetime
+    from zoneinfo import ZoneInfo
+
+    start = int(datetime(2026, 3, 27, 7, 0, tzinfo=ZoneInfo("Europe/Berlin")).timestamp())
+    rows = ["t_ns,track_id,x,y,z,heading_rad,speed_mps"]
+    rows += [f"{(start + k) * 10**9},1,{k * 0.01:.2f},0.0,0.0,0.0,1.0" for k in range(0, 1200, 2)]
+    csv = tmp_path / "morning.csv"
+    csv.write_text("\n".join(rows) + "\n")
+    log = tmp_path / "morning.mcap"
+    converted = run("convert", csv, "-o", log, "--tz", "Europe/Berlin", "-q")
+    assert converted.exit_code == 0, converted.stderr
+    doc = run_json("info", log, "--format", "json")
+    assert doc["fixed_sensor"]["hours_with_messages"] == (
+        "weekdays 07:00-08:00; weekends none (Europe/Berlin)"
+    )
+    utc = run_json("info", log, "--tz", "UTC", "--format", "json")
+    assert utc["fixed_sensor"]["hours_with_messages"] == "weekdays 06:00-07:00; weekends none (UTC)"
+    built = run("build", log, "-o", tmp_path / "morning.aion", "--derive-graph", "-q")
+    assert built.exit_code == 0, built.stderr
+    table = run("info", tmp_path / "morning.aion")
+    assert "weekdays 07:00-08:00; weekends none (Europe/Berlin)" in " ".join(table.stdout.split())
