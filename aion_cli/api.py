@@ -116,10 +116,10 @@ class Map(Generic[Report]):
 
     @classmethod
     def from_state(cls, state: MapState, timezone: ZoneLike | None = None) -> Map[None]:
-        """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g.
-        to :meth:`save` it; its scene graph is the state's latest. A loaded map's state is
-        refused: its queries count its pending day and open window as closed, in place, so
-        it cannot be written again (:meth:`save` copies a loaded map)."""
+        """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g. to
+        :meth:`save` it; its scene graph and manifest (its queries' notes) are the state's now:
+        wrap it again after feeding more. A loaded map's state is refused: its queries count its
+        pending day and open window as closed, in place (:meth:`save` copies a loaded map)."""
         from aion_cli.api_make import state_map
 
         return Map(state_map(state, timezone))

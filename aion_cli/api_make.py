@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
+    from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
     from aion_cli.pinned_file import PinnedFile
@@ -352,10 +353,11 @@ def _config(config: object) -> ModelConfig | None:
 def state_map(state: object, timezone: object) -> LoadedMap:
     """A state built in memory as a map to query and save (:meth:`Map.from_state`): a
     ``MapState`` that can be written (not a loaded map's), its zone a name every query
-    reads; its scene graph is the state's latest."""
+    reads; its scene graph is the state's latest, and its manifest the one :meth:`Map.save`
+    writes (:func:`state_manifest`), so its queries answer with the notes and
+    ``hour_observed`` the saved map's give (before: none, and None)."""
     from aion_cli.api_checks import zone_name
     from aion_cli.engine.state import MapState
-    from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap, latest_graph
 
     if not isinstance(state, MapState):
@@ -374,8 +376,7 @@ def state_map(state: object, timezone: object) -> LoadedMap:
         from aion_cli.timeparse import resolve_zone
 
         name = resolve_zone(name).name
-    manifest = Manifest(state={}, config=state.config.to_dict(), timezone=name)
-    return LoadedMap(state, latest_graph(state), manifest.to_dict())
+    return LoadedMap(state, latest_graph(state), state_manifest(state, name).to_dict())
 
 
 def copy_map(file: PinnedFile, target: Path) -> None:
@@ -399,17 +400,16 @@ def copy_map(file: PinnedFile, target: Path) -> None:
             tmp.unlink(missing_ok=True)
 
 
-def write_state(state: MapState, timezone: str | None, target: Path) -> None:
-    """Write an in-memory ``state`` (``Map.from_state``) as the map file ``target``, its
-    manifest counting the detections fed as a build's counts them."""
+def state_manifest(state: MapState, timezone: str | None) -> Manifest:
+    """The manifest of a state fed in memory (``Map.from_state``): the detections fed, counted
+    as a build's manifest counts them, and the families, days scored and hours observed
+    (``family_summary``) that queries note from; what :func:`write_state` stores."""
     from aion_cli.engine.family_summary import family_summary
-    from aion_cli.formats.mapfile import write_map
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import state_counts
 
-    arrays, meta = state.to_arrays(lazy=True)
-    stored = Manifest(
-        state=meta,
+    return Manifest(
+        state={},
         config=state.config.to_dict(),
         counts={  # the detections fed, as a build's manifest counts them
             "read": state.accepted + sum(state.dropped.values()),
@@ -421,4 +421,12 @@ def write_state(state: MapState, timezone: str | None, target: Path) -> None:
         timezone=timezone,
         families=family_summary(state),
     )
-    write_map(target, arrays, stored.to_dict())
+
+
+def write_state(state: MapState, timezone: str | None, target: Path) -> None:
+    """Write an in-memory ``state`` (``Map.from_state``) as the map file ``target``, with
+    :func:`state_manifest` (of the state now, as fed so far) and the state's members."""
+    from aion_cli.formats.mapfile import write_map
+
+    arrays, meta = state.to_arrays(lazy=True)
+    write_map(target, arrays, replace(state_manifest(state, timezone), state=meta).to_dict())

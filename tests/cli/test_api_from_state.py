@@ -44,3 +44,24 @@ def test_a_saved_in_memory_map_counts_its_detections(tmp_path: Path) -> None:
 def test_an_unknown_zone_is_refused_before_it_is_saved() -> None:
     with pytest.raises(InputError, match="unknown time zone 'Mars/Olympus'"):
         aion.Map.from_state(_fed().state, timezone="Mars/Olympus")
+
+
+def test_an_in_memory_map_notes_what_its_saved_copy_notes(tmp_path: Path) -> None:
+    """The map fed 10:00-11:00 on one day: before, in memory it listed no observed hours
+    (``hour_observed`` None) and noted nothing, while its saved copy said 03:00 was never
+    observed and that one day scores nothing."""
+    mem = aion.Map.from_state(_fed().state, timezone="UTC")
+    saved = aion.Map.load(mem.save(tmp_path / "mem.aion"))
+    for m in (mem, saved):
+        assert m.predict("2026-01-05 10:30").hour_observed is True
+        night = m.predict("2026-01-05 03:00")
+        assert night.hour_observed is False
+        assert len(night.notes) == 2
+        assert night.notes[0].startswith("every entry forecasts its static rate")
+        assert "the map has 0 scored days" in night.notes[0]
+        assert night.notes[1].startswith("no log observed 03:00-04:00 (UTC) on any day")
+        assert "(the map observed 10:00-11:00)" in night.notes[1]
+        series = m.predict_series("2026-01-05 09:00", "2026-01-05 11:00", "1h", top=1)
+        assert series.hour_observed == (False, True, False)  # fed 10:00:00 .. 10:59:50
+    assert mem.manifest.counts["used"] == saved.manifest.counts["used"] == 357
+    assert mem.manifest.families["observed_bins"] == saved.manifest.families["observed_bins"]
