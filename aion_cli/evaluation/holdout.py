@@ -86,7 +86,7 @@ class HoldoutResult:
 
         nll, rho = scores(self.headings, "nll_all"), scores(self.activity, "spearman")
         return (
-            f"<HoldoutResult: {detections:,} test detections, {len(self.hours):,} hours; "
+            f"<aion.HoldoutResult: {detections:,} test detections, {len(self.hours):,} hours; "
             f"heading NLL {nll}; hourly Spearman {rho}>"
         )
 

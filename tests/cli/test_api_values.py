@@ -73,8 +73,9 @@ def test_a_holdout_result_s_repr_is_its_scores(m: aion.Map) -> None:
     cli = run_json("evaluate", "holdout", m.path, log, "--format", "json")
     with pytest.warns(aion.AionWarning, match="within the map's own time span"):  # in-sample
         text = repr(m.holdout([log]))
-    # before: HoldoutResult(headings=[...], ..., hours=[every hour], series={every value})
-    assert text.startswith(f"<HoldoutResult: {cli['test']['detections']:,} test detections, "
+    # before: HoldoutResult(headings=[...], ..., hours=[every hour], series={every value});
+    # then <HoldoutResult: ...>, unlike the <aion.… > of every other result and report
+    assert text.startswith(f"<aion.HoldoutResult: {cli['test']['detections']:,} test detections, "
                            f"{len(cli['hours'])} hours; heading NLL ")
     for row in cli["headings"]:
         assert f"{row['model']} {row['nll_all']:.3g}" in text
