@@ -208,11 +208,17 @@ def time_value(time: object) -> object:
                 hint=f"UNIX seconds: give {value} * 10**9, or the string \"{value}\"",
             )
         return value
-    if isinstance(time, numbers.Real) and math.isfinite(time):  # time.time(): UNIX seconds
+    if isinstance(time, numbers.Real) and math.isfinite(time):
+        number = float(time)
+        if abs(number) >= SECONDS_LIKE_NS:  # nanoseconds as a float (a column's mean ...)
+            hint = f"nanoseconds as a float: give round({number!r}), an int"
+        else:  # time.time(): UNIX seconds
+            hint = (
+                f"UNIX seconds: give datetime.fromtimestamp({number!r}, timezone.utc), "
+                f"or round({number!r} * 10**9) nanoseconds"
+            )
         raise InputError(
-            f"not a time: {time!r} (a float; integer times are nanoseconds)",
-            hint=f"UNIX seconds: give datetime.fromtimestamp({float(time)!r}, timezone.utc), "
-            f"or round({float(time)!r} * 10**9) nanoseconds",
+            f"not a time: {time!r} (a float; integer times are nanoseconds)", hint=hint
         )
     if isinstance(time, datetime) and time != time:  # pandas' NaT, a datetime equal to nothing
         raise InputError(f"not a time: {time!r}", hint="NaT marks a missing time")

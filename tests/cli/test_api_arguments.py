@@ -134,6 +134,18 @@ def test_a_float_time_is_refused_with_what_unix_seconds_are() -> None:
         aion.to_ns(float("nan"))  # type: ignore[arg-type]
 
 
+def test_a_float_of_nanoseconds_is_not_taken_for_seconds() -> None:
+    """Nanoseconds as a float (``df["t_ns"].mean()``, ``float(ns)``): the hint read them as
+    UNIX seconds, ``datetime.fromtimestamp(1.7682072e+18, ...)``, a year past 9999, which
+    raises; it now says to round them to an int, which reads the time meant."""
+    ns = int(datetime(2026, 1, 12, 8, 40, tzinfo=UTC).timestamp()) * 10**9
+    for given in (float(ns), np.float64(ns), -float(ns)):
+        with pytest.raises(InputError, match="a float; integer times are nanoseconds") as caught:
+            aion.to_ns(given)  # type: ignore[arg-type]
+        assert caught.value.hint == f"nanoseconds as a float: give round({float(given)!r}), an int"
+    assert aion.to_ns(round(float(ns))) == ns  # exact: 1768207200 * 10**9 is a float exactly
+
+
 @pytest.mark.parametrize(
     ("call", "fragment"),
     [
