@@ -15,6 +15,7 @@ REPO = Path(__file__).resolve().parents[1]
 # a user's helpers typed with the bare class: every kind of map is one
 HELPERS = '''
 import aion_cli as aion
+from aion_cli.evaluation.holdout import hourly_picture
 
 
 def busiest(m: aion.Map) -> str:
@@ -28,6 +29,10 @@ def every_kind(paths: list[str]) -> list[str]:
         busiest(aion.merge(paths, "y.aion")),
         busiest(aion.compact(paths[0], "z.aion")),
     ]
+
+
+def held_out_hours(m: aion.Map) -> str:  # docs/API.md: hourly_picture(result, path, title)
+    return hourly_picture(m.holdout(["later.mcap"]), "hours.png", "later").name
 '''
 
 

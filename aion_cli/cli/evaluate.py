@@ -375,7 +375,7 @@ def holdout(
         from aion_cli.evaluation.holdout import hourly_picture
 
         title = f"{map_path.name} on {', '.join(p.name for p in logs)}: detections per hour"
-        note(f"wrote {hourly_picture(result, png, title)}")
+        note(f"wrote {hourly_picture(result, png, title, '--png')}")
     if fmt == "json":
         emit(fmt, [], (), json_payload=result.to_dict())
         return

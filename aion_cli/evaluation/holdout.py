@@ -35,6 +35,7 @@ that declares another time zone than the map's (``aion simulate --tz``).
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -392,15 +393,19 @@ def _hour_label(hour_ns: int, timezone: str) -> str:
     return from_ns(hour_ns, resolve_zone(timezone)).isoformat(timespec="minutes")
 
 
-def hourly_picture(result: HoldoutResult, path: Path, title: str) -> Path:
-    """The hourly truth (bars) and each model's forecast (lines) as a PNG: ticks ``HH`` in the
-    map's zone, ``MM-DD HH`` when the test spans several days."""
+def hourly_picture(
+    result: HoldoutResult, path: str | os.PathLike[str], title: str, option: str = "path"
+) -> Path:
+    """The hourly truth (bars) and each model's forecast (lines) as the PNG file ``path``
+    (a ``str`` or any ``os.PathLike``, as the API's paths); the file written. Ticks ``HH`` in
+    the map's zone, ``MM-DD HH`` when the test spans several days. A bad target is named in
+    errors as ``option``: the argument ``path``, or the CLI's ``--png``."""
     from aion_cli.errors import InputError
     from aion_cli.evaluation import plots
     from aion_cli.pictures.render import check_png_target
 
     path = Path(path)
-    check_png_target(path, "--png")  # a folder, another suffix, a missing folder
+    check_png_target(path, option)  # a folder, another suffix, a missing folder
     if not result.hours:
         raise InputError(
             "no hourly activity to draw: the test logs observed no window the map could follow",
