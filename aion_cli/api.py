@@ -491,9 +491,8 @@ class Map(Generic[Report]):
 
     def __repr__(self) -> str:
         where = str(self.path) if self.path is not None else "in memory"
-        with self._lock:  # a file's figure from its manifest: its state is not read for it
-            entries = self._source.entry_count()
+        with self._lock:  # from its manifest (what it cannot do too): its state is not read
+            entries, kind = self._source.entry_count(), self._source.kind()
         if entries is None:
-            return f"<aion.Map {where}: entries not read yet>"
-        return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}>"
-
+            return f"<aion.Map {where}: entries not read yet{kind}>"
+        return f"<aion.Map {where}: {entries:,} entr{'y' if entries == 1 else 'ies'}{kind}>"

@@ -64,6 +64,17 @@ class MapSource:
             self.loaded = _read(file)
         return self.loaded
 
+    def kind(self) -> str:
+        """What the map cannot do, for its repr, from the manifest: a part map (``aion build
+        --part``) answers no query until merged, a query-only map (``aion compact``) is
+        neither continued nor merged; "" for any other map."""
+        state = self.manifest.get("state")
+        if isinstance(state, dict) and isinstance(state.get("deferred"), dict):
+            return ", a part map (answers no query: aion.merge it)"
+        if isinstance(self.manifest.get("query_only"), dict):
+            return ", query-only (aion.compact: not continued or merged)"
+        return ""
+
     def entry_count(self) -> int | None:
         """How many entries (cells and nodes) the map holds: the state's live rows once read,
         else the length of the file's ``entry_kind`` member as its manifest records it (a map

@@ -15,7 +15,7 @@ import pytest
 import aion_cli as aion
 from aion_cli.errors import MapFileError
 from aion_cli.formats import mapfile_read
-from tests.cli.conftest import Office, run
+from tests.cli.conftest import SAMPLE, Office, run
 
 T = "2026-01-12 08:40"
 
@@ -103,3 +103,26 @@ def test_a_map_aion_cannot_read_is_refused_when_loaded(office: Office, tmp_path:
     path = _rewrite(office.map, tmp_path / "newer.aion", newer_state)
     with pytest.raises(MapVersionError, match="written by a newer aion"):
         aion.Map.load(path)
+
+
+def test_a_maps_repr_says_what_it_cannot_do(
+    sample_map: Path, tmp_path: Path, reads: list[str]
+) -> None:
+    """A part map answers no query and a query-only map is neither continued nor merged; their
+    repr read like an ordinary map's, so a notebook showed nothing amiss until a query (or a
+    continued build) failed. It says so now, from the manifest alone."""
+    compacted = aion.compact(sample_map, tmp_path / "robot.aion")
+    part = aion.build([SAMPLE], output=tmp_path / "mon.part.aion", part=True)
+    reads.clear()
+    entries = f"{len(aion.Map.load(sample_map).state.entries.live_rows()):,} entries"
+    reads.clear()
+    for m in (compacted, aion.Map.load(compacted.path)):
+        assert repr(m) == (
+            f"<aion.Map {compacted.path}: {entries}, query-only (aion.compact: not continued "
+            "or merged)>"
+        )
+    for m in (part, aion.Map.load(part.path)):
+        assert repr(m).startswith(f"<aion.Map {part.path}: ")
+        assert repr(m).endswith(" entries, a part map (answers no query: aion.merge it)>")
+    assert reads == []
+    assert repr(aion.Map.load(sample_map)) == f"<aion.Map {sample_map}: {entries}>"
