@@ -102,13 +102,16 @@ def wall_clock_note(time: object, zone: Zone, t_ns: int) -> str | None:
     ``datetime`` or ``numpy.datetime64``, a wall-clock time of ``zone`` as a string without
     an offset is (README: a naive datetime is such a wall-clock time), read by its ``fold``
     as PEP 495 has it: 0 (the default) the first of a repeated time and a skipped one as late
-    as the clocks jump, as a string is read; 1 the other. None for an aware ``datetime`` or
+    as the clocks jump, as a string is read; 1 the other (a ``datetime64`` has no fold: 0,
+    and its note says a ``datetime`` names the other). None for an aware ``datetime`` or
     nanoseconds (one instant each), and away from a clock change."""
     if isinstance(time, str):
         return clock_change_note(time, zone, t_ns)
-    if type(time).__name__ == "datetime64":  # numpy's, read as a naive datetime
+    other_fold = "fold={}"  # how to ask for the other instant
+    if type(time).__name__ == "datetime64":  # numpy's, read as a naive datetime of fold 0
         micro = cast(Any, time).astype("datetime64[us]").item()  # NaT: None
         time = micro if isinstance(micro, datetime) else None
+        other_fold = "a datetime64 has no fold: a datetime with fold={} names it"
     if not isinstance(time, datetime) or time.tzinfo is not None:
         return None
     if not offset_changes_near(t_ns, zone):
@@ -127,5 +130,6 @@ def wall_clock_note(time: object, zone: Zone, t_ns: int) -> str | None:
     which, rest = ("first", "second") if time.fold == 0 else ("second", "first")
     return (
         f"{said} happens twice in {zone.name} (a clock change repeats it): read as the "
-        f"{which}, {format_ns(t_ns, zone)}; the {rest} is {other} (fold={1 - time.fold})"
+        f"{which}, {format_ns(t_ns, zone)}; the {rest} is {other} "
+        f"({other_fold.format(1 - time.fold)})"
     )

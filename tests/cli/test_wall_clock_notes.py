@@ -125,3 +125,24 @@ def test_a_naive_datetime_of_a_clock_change_is_noted_as_its_string_is(tmp_path: 
     )
     aware = m.predict(datetime(2026, 3, 29, 1, 30, tzinfo=UTC), top=1)  # one instant
     assert not any("clock change" in n for n in aware.notes)
+
+
+def test_a_repeated_datetime64_is_not_told_to_use_a_fold_it_lacks() -> None:
+    """A ``numpy.datetime64`` at a repeated wall-clock time is read as the first instant (it
+    has no fold); its note ended "(fold=1)", which no ``datetime64`` can be given. It now says
+    that a ``datetime`` with ``fold=1`` names the second, and that one does."""
+    import numpy as np
+
+    m = Map.from_state(corridor(2, lambda day, hour: 4.0).state, timezone="Europe/Berlin")
+    berlin, zone = ZoneInfo("Europe/Berlin"), resolve_zone("Europe/Berlin")
+    first = datetime(2026, 10, 25, 2, 30, tzinfo=berlin)
+    second = first.replace(fold=1)
+    table = m.predict(np.datetime64("2026-10-25T02:30"), top=1)
+    assert table.time_ns == to_ns(first)
+    assert table.notes[0] == (
+        "2026-10-25 02:30 happens twice in Europe/Berlin (a clock change repeats it): read as "
+        f"the first, {format_ns(to_ns(first), zone)}; the second is "
+        f"{format_ns(to_ns(second), zone)} (a datetime64 has no fold: a datetime with fold=1 "
+        "names it)"
+    )
+    assert m.predict(datetime(2026, 10, 25, 2, 30, fold=1), top=1).time_ns == to_ns(second)
