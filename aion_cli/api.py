@@ -23,8 +23,8 @@ the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.api_checks`); the functions that make maps (:func:`build`,
 :func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
-``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports the whole
-API (``aion_cli`` itself re-exports all of it).
+``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports them, and
+``aion_cli`` re-exports them with ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``.
 """
 
 from __future__ import annotations
