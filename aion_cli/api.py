@@ -37,7 +37,7 @@ from aion_cli import api_checks as check
 from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import Plan, Table
-from aion_cli.api_time import to_ns
+from aion_cli.api_time import query_time, query_times, query_zone, to_ns
 from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
 from aion_cli.map_sharing import new_lock, one_at_a_time, pickled, unpickled
@@ -157,23 +157,14 @@ class Map(Generic[Report]):
         return zone if isinstance(zone, str) else None
 
     def _zone(self, tz: object) -> Zone:
-        from aion_cli.timeparse import resolve_zone
-
-        name = check.zone_name(tz)
-        return resolve_zone(name if name is not None else self.timezone)
+        """``tz``, else the map's zone (:func:`aion_cli.api_time.query_zone`)."""
+        return query_zone(tz, self.timezone)
 
     def _time(
         self, time: TimeLike, tz: object, after_ns: int | None = None
     ) -> tuple[int, Zone]:
-        """``time`` in the map's zone (or ``tz``); ``after_ns``: the start of the span whose
-        end ``time`` is, which a clock alone, a day word or a relative string counts from
-        (``("2026-11-23 08:00", "10:00")`` is two hours, as ``--leave`` reads it)."""
-        zone = self._zone(tz)
-        if after_ns is not None and isinstance(time, str):
-            from aion_cli.timeparse import from_ns, parse_time
-
-            return parse_time(time, zone, from_ns(after_ns, zone)), zone
-        return to_ns(time, zone), zone
+        """``time`` in ``tz``, else the map's zone (:func:`aion_cli.api_time.query_time`)."""
+        return query_time(time, tz, self.timezone, after_ns)
 
     def _path_ends(self, path: object) -> Any:
         """The ends of ``path = (start, goal)`` for an export or a picture (None: no path)."""
@@ -368,6 +359,8 @@ class Map(Generic[Report]):
         format: str | None = None,
         path: PairOf[PlaceLike] | None = None,
         force: bool = False,
+        series: PairOf[TimeLike] | None = None,
+        step: StepLike | None = None,
     ) -> list[Path]:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
@@ -378,9 +371,11 @@ class Map(Generic[Report]):
         node's metadata; as ``aion export --format dsg``). Without ``format``, ``folder``'s
         suffix chooses as in ``aion export``: ``.mcap``, ``.json`` / ``.sparkdsg``, ``.ply`` /
         ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
-        folder. Files of aion's no export wrote there are replaced only with ``force``."""
+        folder. Files of aion's no export wrote there are replaced only with ``force``.
+        ``series=(start, end)``: every ``step`` (default ``"1h"``) from start to end, as
+        ``aion export --from --to --step`` (a folder per time, or one MCAP file to scrub)."""
         from aion_cli.api_make import warn_of
-        from aion_cli.exports import cells_left_out, export_format, write_export
+        from aion_cli.exports import cells_left_out, export_format, scene_file, write_export
 
         shown = "format='ply' or Map.picture"
 
@@ -393,14 +388,8 @@ class Map(Generic[Report]):
             raise InputError(
                 f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
             )
-        historical, force = check.historical(time, historical), check.flag(force, "force")
-        times: list[int | None]
-        zone = None
-        if historical:
-            times = [None]
-        else:
-            when, zone = self._time("now" if time is None else time, tz)
-            times = [when]
+        force = check.flag(force, "force")
+        times, zone = query_times(time, historical, series, step, tz, self.timezone)
         ends = self._path_ends(path)
         label = str(self.path) if self.path is not None else "<memory>"
         if format == "dsg" and ends is not None:
@@ -409,7 +398,21 @@ class Map(Generic[Report]):
                 hint="format='ply' or format='mcap' draws the path; "
                 "Map.picture(file, path=...) draws it as a PNG",
             )
-        written = write_export(self._loaded, label, out, times, zone, format, ends, force=force)
+        if format == "dsg" and series is not None:
+            raise InputError(
+                "a scene-graph file holds one time: leave out series",
+                hint="format='ply' or format='mcap' writes a series; "
+                "Map.picture(file, series=...) draws it as a PNG",
+            )
+        if series is not None and scene_file(format, out):
+            raise InputError(
+                f"a series writes one {format} scene per time into a folder, got a file: {out}",
+                hint="name a folder (e.g. 'series/'), or a .mcap file for one file to scrub",
+            )
+        written = write_export(
+            self._loaded, label, out, times, zone, format, ends, series=series is not None,
+            force=force,
+        )
         left_out = None if written.graph is None else cells_left_out(self._loaded, shown)
         warn_of([left_out[0]] if left_out is not None and left_out[1] else [], [])
         return written.files
@@ -423,21 +426,20 @@ class Map(Generic[Report]):
         historical: bool = False,
         tz: ZoneLike | None = None,
         path: PairOf[PlaceLike] | None = None,
+        series: PairOf[TimeLike] | None = None,
+        step: StepLike | None = None,
     ) -> Path:
         """The map from above at ``time`` (or as observed) as the PNG file ``file``, with the
         path planned between ``path = (start, goal)``; the file written (as ``aion export
-        --format png``)."""
+        --format png``). ``series=(start, end)``: one panel every ``step`` (default ``"1h"``),
+        as ``--from --to --step``."""
         from aion_cli.pictures.render import export_png
 
-        historical = check.historical(time, historical)
         self._check_file()
-        when: int | None = None
-        zone = None
-        if not historical:
-            when, zone = self._time("now" if time is None else time, tz)
+        times, zone = query_times(time, historical, series, step, tz, self.timezone)
         ends = self._path_ends(path)
         name = self.path.name if self.path is not None else "<memory>"
-        return export_png(self._loaded, name, as_path(file), [when], zone, ends, option="file")
+        return export_png(self._loaded, name, as_path(file), times, zone, ends, option="file")
 
     @one_at_a_time
     def holdout(
@@ -450,19 +452,10 @@ class Map(Generic[Report]):
         options, as :func:`build` takes them (``detection_topics``, ``observed`` spans,
         ``map_frame``: default the frame the map records, else ``map``; ``base_frame``,
         ``graph_topic``, ``log_format``, ``detections_mapping``)."""
-        from aion_cli.api_make import reading_options, warn_of
-        from aion_cli.build_options import DEFAULT_MAP_FRAME
-        from aion_cli.evaluation.holdout import score_held_out
+        from aion_cli.api_make import score_holdout
 
         self._check_file()
-        frame = options.pop("map_frame", None)  # a wrong type is refused with the options
-        options["map_frame"] = (
-            frame if frame is not None else self.manifest.map_frame or DEFAULT_MAP_FRAME
-        )
-        opts = reading_options(logs, options, self.timezone, "Map.holdout")
-        result = score_held_out(self._loaded, opts, radius)
-        warn_of(result.warnings, result.notes)
-        return result
+        return score_holdout(self._loaded, self.manifest, self.timezone, logs, radius, options)
 
     # -- saving ------------------------------------------------------------------------------
 

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
+    from aion_cli.evaluation.holdout import HoldoutResult
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
@@ -398,6 +399,30 @@ def copy_map(file: PinnedFile, target: Path) -> None:
             os.replace(tmp, target)
         finally:
             tmp.unlink(missing_ok=True)
+
+
+def score_holdout(
+    loaded: LoadedMap,
+    manifest: Manifest,
+    timezone: str | None,
+    logs: object,
+    radius: float,
+    options: dict[str, object],
+) -> HoldoutResult:
+    """``Map.holdout``: the map ``loaded`` scored on ``logs`` read with the build's reading
+    ``options`` (``map_frame`` by default the frame the map records, else ``map``), its
+    warnings issued as :class:`~aion_cli.errors.AionWarning` in the API's words."""
+    from aion_cli.build_options import DEFAULT_MAP_FRAME
+    from aion_cli.evaluation.holdout import score_held_out
+
+    frame = options.pop("map_frame", None)  # a wrong type is refused with the options
+    options["map_frame"] = (
+        frame if frame is not None else manifest.map_frame or DEFAULT_MAP_FRAME
+    )
+    opts = reading_options(logs, options, timezone, "Map.holdout")
+    result = score_held_out(loaded, opts, radius)
+    warn_of(result.warnings, result.notes)
+    return result
 
 
 def state_manifest(state: MapState, timezone: str | None) -> Manifest:

@@ -55,3 +55,61 @@ def _wall_clock(value: Any) -> tuple[datetime, int]:
     if not isinstance(moment, datetime):
         check_range(int(micro.astype(np.int64)) * 1000, str(value))
     return moment, int((value - micro) / np.timedelta64(1, "ns"))
+
+
+def query_zone(tz: object, default: str | None) -> Zone:
+    """The zone of a query: ``tz`` (a name, a ``ZoneInfo`` or a fixed offset), else a map's
+    zone ``default``, else the machine's."""
+    from aion_cli.timeparse import resolve_zone
+
+    name = zone_name(tz)
+    return resolve_zone(name if name is not None else default)
+
+
+def query_time(
+    time: TimeLike, tz: object, default: str | None, after_ns: int | None = None
+) -> tuple[int, Zone]:
+    """``time`` (as :func:`to_ns` takes it) in ``tz``, else in a map's zone ``default`` (else
+    the machine's), and that zone; ``after_ns``: the start of the span whose end ``time`` is,
+    which a clock alone, a day word or a relative string counts from (``("2026-11-23 08:00",
+    "10:00")`` is two hours, as ``--leave`` reads it)."""
+    from aion_cli.timeparse import from_ns, parse_time
+
+    zone = query_zone(tz, default)
+    if after_ns is not None and isinstance(time, str):
+        return parse_time(time, zone, from_ns(after_ns, zone)), zone
+    return to_ns(time, zone), zone
+
+
+def query_times(
+    time: TimeLike | None, historical: object, series: object, step: object, tz: object,
+    default: str | None,
+) -> tuple[list[int | None], Zone | None]:
+    """The times of an export or a picture (``Map.export``, ``Map.picture``): ``[None]`` as
+    observed, ``time``'s (None: now), or ``series=(start, end)`` every ``step`` (None:
+    ``"1h"``), as ``aion export --from --to --step``; in ``tz``, else the zone ``default``."""
+    from aion_cli.api_checks import historical as checked_historical
+    from aion_cli.api_checks import pair
+    from aion_cli.api_checks import step as checked_step
+    from aion_cli.prediction_series import series_times
+    from aion_cli.time_steps import parse_step
+
+    observed = checked_historical(time, historical)
+    if series is None:
+        if step is not None:
+            raise InputError("step needs series", hint='e.g. series=("06:00", "20:00")')
+        if observed:
+            return [None], None
+        when, zone = query_time("now" if time is None else time, tz, default)
+        return [when], zone
+    if time is not None or observed:
+        raise InputError(
+            f"choose {'time' if time is not None else 'historical=True'} or series, not both",
+            hint="time= is one time; series=(start, end) one every step",
+        )
+    first, last = pair(series, "series", "start, end")
+    every = parse_step(checked_step("1h" if step is None else step), "step")
+    t0, zone = query_time(first, tz, default)
+    t1 = query_time(last, tz, default, after_ns=t0)[0]
+    names = ("series[0]", "series[1]")
+    return list(series_times(t0, t1, every, zone, names, "frames", first)), zone

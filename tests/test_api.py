@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 import shutil
@@ -329,3 +330,67 @@ def test_a_spans_end_given_as_a_clock_counts_from_its_start(example: dict[str, A
     assert day.to_dict() == example["day"].to_dict()
     relative = m.predict_series("2026-01-12 06:00", "+14h", "1h", tz="UTC", layer="rooms")
     assert relative.times_ns == example["day"].times_ns
+
+
+def test_a_series_export_and_picture_write_what_the_cli_writes(
+    example: dict[str, Any], tmp_path: Path
+) -> None:
+    """``aion export --from --to --step`` (the demo's MCAP of the day, a folder per time, a
+    picture of small multiples) had no API: ``Map.export`` and ``Map.picture`` took one time.
+    With ``series=(start, end)`` and ``step`` they write the command's bytes."""
+    folder: Path = example["folder"]
+    office, m = folder / "office.aion", example["m"]
+    (scene,) = example["scene"]  # docs/API.md's example: the day as one MCAP file
+    span = ["--from", "2026-01-12 06:00", "--to", "2026-01-12 20:00", "--tz", "UTC"]
+
+    def cli_export(out: Path, *args: str) -> None:
+        with contextlib.chdir(folder):  # the map named as the example names it: its metadata
+            result = CliRunner().invoke(
+                cli, ["export", office.name, *span, *args, "-o", str(out)], catch_exceptions=False
+            )
+        assert result.exit_code == 0, result.stderr
+
+    cli_export(tmp_path / "day.mcap", "--step", "1h", "--format", "mcap", "--path-from", "p103",
+               "--path-to", "p2")
+    assert (folder / scene).read_bytes() == (tmp_path / "day.mcap").read_bytes()
+    cli_export(tmp_path / "day.png", "--step", "2h", "--format", "png")
+    png = m.picture(folder / "day.png", series=("2026-01-12 06:00", "20:00"), step="2h", tz="UTC")
+    assert png.read_bytes() == (tmp_path / "day.png").read_bytes()
+    cli_export(tmp_path / "frames", "--step", "7h")  # 06:00, 13:00, 20:00
+    files = m.export(folder / "frames", series=("2026-01-12 06:00", "20:00"), step="7h", tz="UTC")
+    frames = sorted(p.name for p in (folder / "frames").iterdir() if p.is_dir())
+    assert frames == ["20260112T060000Z", "20260112T130000Z", "20260112T200000Z"]
+    assert frames == sorted(p.name for p in (tmp_path / "frames").iterdir() if p.is_dir())
+    for frame in frames:
+        ours, theirs = folder / "frames" / frame, tmp_path / "frames" / frame
+        assert sorted(p.name for p in ours.iterdir()) == sorted(p.name for p in theirs.iterdir())
+        assert (ours / "scene.ply").read_bytes() == (theirs / "scene.ply").read_bytes()
+        assert ours / "entries.csv" in files
+
+
+@pytest.mark.parametrize(
+    ("call", "message"),
+    [
+        (lambda m: m.export("x/", time=AT, series=(AT, "20:00")), "choose time or series"),
+        (lambda m: m.picture("x.png", historical=True, series=(AT, "20:00")),
+         "choose historical=True or series"),
+        (lambda m: m.export("x/", step="1h"), "step needs series"),
+        (lambda m: m.export("x.json", series=(AT, "20:00")), "a scene-graph file holds one time"),
+        (lambda m: m.export("x.ply", series=(AT, "20:00")), "one ply scene per time into a folder"),
+        (lambda m: m.picture("x.png", series=(AT, "2026-01-12 08:40")), None),  # one time: fine
+        (lambda m: m.picture("x.png", series=("2026-01-12 00:00", "2026-01-13 06:00"), tz="UTC"),
+         "the picture would have 31 panels"),
+    ],
+)
+def test_a_series_is_refused_where_it_cannot_be(
+    example: dict[str, Any], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, call: Any,
+    message: str | None,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    if message is None:
+        assert call(example["m"]) == Path("x.png")
+        return
+    with pytest.raises(aion.InputError, match=message) as caught:
+        call(example["m"])
+    if "panels" in message:  # the hint in the API's words: step=, series (not --step, --from)
+        assert caught.value.hint == 'step="2h" draws this span in 16 panels (or shorten series)'

@@ -179,10 +179,10 @@ def export_png(
     option: str = "-o",
 ) -> Path:
     """One PNG file ``out`` (named in errors as ``option``: the CLI's ``-o``, the API's
-    ``file``): the map at one time, or small multiples of a series (one panel
-    per time, at most :data:`~aion_cli.pictures.topdown.MAX_PANELS`, sharing axes, flow
-    scale and colour bar), with the path planned between ``ends`` (from
-    ``exports.path_ends``) at each time."""
+    ``file``, then naming the series ``step`` and ``series``): the map at one time, or small
+    multiples of a series (one panel per time, at most
+    :data:`~aion_cli.pictures.topdown.MAX_PANELS`, sharing axes, flow scale and colour bar),
+    with the path planned between ``ends`` (from ``exports.path_ends``) at each time."""
     from aion_cli.engine.node_ids import node_label
     from aion_cli.exports import planned_path
     from aion_cli.formats.scene_colours import PATH_GREEN
@@ -193,7 +193,7 @@ def export_png(
     if len(times) > MAX_PANELS:
         raise InputError(
             f"the picture would have {len(times)} panels, more than {MAX_PANELS}",
-            hint=_fitting_step_hint(times),
+            hint=_fitting_step_hint(times, cli=option == "-o"),
         )
     first = scene_at(loaded, times[0]) if times else None
     floors = len(levels_apart([first], MAX_PANELS)) if first is not None else 1
@@ -201,7 +201,7 @@ def export_png(
         raise InputError(
             f"the picture would have {len(times) * floors} panels ({len(times)} times on "
             f"{floors} levels), more than {MAX_PANELS}",
-            hint=_fitting_step_hint(times, floors),
+            hint=_fitting_step_hint(times, floors, cli=option == "-o"),
         )
     scenes = []
     paths: list[list[PathLine]] = []
@@ -235,10 +235,10 @@ _NICE_STEPS_S = (60, 300, 600, 900, 1200, 1800, 3600, 7200, 10800, 14400, 21600,
                  86400, 172800, 604800)
 
 
-def _fitting_step_hint(times: Sequence[int | None], per_time: int = 1) -> str:
+def _fitting_step_hint(times: Sequence[int | None], per_time: int = 1, cli: bool = True) -> str:
     """The hint for a series of too many panels: the smallest round ``--step`` that draws
     the same span in at most :data:`MAX_PANELS` panels (``per_time`` panels a time: the
-    levels of a multi-storey map)."""
+    levels of a multi-storey map); ``cli`` False: in the API's words (``step``, ``series``)."""
     known = [t for t in times if t is not None]
     span_s = (max(known) - min(known)) / 1e9 if known else 0.0
     for step in _NICE_STEPS_S:
@@ -249,8 +249,13 @@ def _fitting_step_hint(times: Sequence[int | None], per_time: int = 1) -> str:
                 else f"{step // 3600}h" if step % 3600 == 0
                 else f"{step // 60}m"
             )
-            return f"--step {unit} draws this span in {panels} panels (or shorten --from/--to)"
-    return "use a larger --step (or a shorter --from/--to)"
+            step_is, span = (
+                (f"--step {unit}", "--from/--to") if cli else (f'step="{unit}"', "series")
+            )
+            return f"{step_is} draws this span in {panels} panels (or shorten {span})"
+    return "use a larger --step (or a shorter --from/--to)" if cli else (
+        "use a larger step (or a shorter series)"
+    )
 
 
 def plan_png(
