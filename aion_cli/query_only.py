@@ -60,8 +60,14 @@ class CompactReport:
             f"{counted(len(self.notes), 'note')}>"
         )
 
+    @property
+    def ratio(self) -> float | None:
+        """How many times smaller the copy is than the map it was made from (None: no copy
+        written); the JSON's ``ratio``."""
+        return self.source_bytes / self.map_bytes if self.map_bytes else None
+
     def to_dict(self) -> dict[str, Any]:
-        ratio = self.source_bytes / self.map_bytes if self.map_bytes else None
+        ratio = self.ratio
         return {
             "map": str(self.output),
             "source": str(self.source),
