@@ -149,3 +149,17 @@ def test_results_compare_by_value_and_none_is_hashable(m: aion.Map) -> None:
                         (series, "SeriesTable")):
         with pytest.raises(TypeError, match=f"unhashable type: '{name}'"):
             hash(value)
+
+
+def test_a_map_state_s_repr_is_one_line(sample_map: Path) -> None:
+    """``m.state`` (docs/API.md: "the engine state") in a notebook printed the generated
+    dataclass repr: every array and the config, 160 kB for the sample's 151 entries. It is one
+    line of its counts now, the same as ``aion info``'s."""
+    info = run_json("info", sample_map, "--format", "json")
+    counts, entries = info["counts"], int(info["entries"])
+    m = aion.Map.load(sample_map)
+    nodes = entries - counts["cells"]
+    assert repr(m.state) == (
+        f"<MapState: {entries:,} entries ({nodes:,} nodes, {counts['cells']:,} cells), "
+        f"{counts['used']:,} detections accepted, 8 direction bins, read for queries>"
+    )
