@@ -10,8 +10,9 @@ atomically with a manifest that accounts for every log. The rules:
   sha256), in time order. A log (by sha256) that two maps hold is refused, naming both maps
   and the log: its detections would be counted twice, and a log is never counted twice. The
   same map file given twice (by path or by content) is refused too, and so is ``-o`` naming
-  one of the inputs. ``merged_from`` lists the input map files (name, path, size, sha256) and
-  ``lineage`` the lineage used.
+  one of the inputs, and so are two maps of one recording read from two log files (the same
+  entries over the same span: :mod:`aion_cli.merge_twins`). ``merged_from`` lists the input
+  map files (name, path, size, sha256) and ``lineage`` the lineage used.
 * **Lineage** (:mod:`aion_cli.merge_lineage`). Node ids mean the same place only within one
   scene-graph session (:mod:`aion_cli.engine.rebind`). ``"same"``: the maps' node entries add
   by id (the engine's merge, exact for disjoint time but for the approximations its docstring
@@ -61,6 +62,7 @@ from aion_cli.merge_config import adopt_config, check_compatible
 from aion_cli.merge_lineage import check_lineage, choose_lineage
 from aion_cli.merge_names import naming_map, shared_names
 from aion_cli.merge_report import MergedInput, MergeReport
+from aion_cli.merge_twins import check_same_recording
 
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
@@ -157,6 +159,7 @@ def merge_map_files(
         config = check_compatible(maps)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
+        check_same_recording(maps)  # one recording in two log files (two sha256s)
         report.lineage, report.lineage_reason = choose_lineage(
             maps, lineage, report.notes, target, graph_file
         )

@@ -134,3 +134,57 @@ def test_a_map_this_aion_cannot_read_is_named(tmp_path: Path) -> None:
     assert failed.value.message.startswith(f"{older}: "), failed.value.message
     assert "state version 1" in failed.value.message
     assert not (tmp_path / "out.aion").exists()
+
+
+def test_one_recording_in_two_log_files_is_refused(tmp_path: Path) -> None:
+    """The same recording converted to another container has another sha256, so the log
+    check let the maps of both files through, and the merge counted every person twice with
+    a note that their times overlap. Such maps hold the same entries over the same span."""
+    from tests.cli.conftest import assert_one_line_error, run
+
+    one = fixed_sensor_map(tmp_path / "day.aion", ("day.mcap",), T0, 1)
+    copy = fixed_sensor_map(tmp_path / "day_bag.aion", ("day.bag",), T0, 1)
+    later = fixed_sensor_map(tmp_path / "day3.aion", ("day3.mcap",), T0 + 2 * DAY, 3)
+    out = tmp_path / "out.aion"
+    done = run("merge", one, later, copy, "-o", out)
+    assert done.exit_code == 2, done.stderr
+    assert_one_line_error(
+        done.stderr, "day.aion (day.mcap) and day_bag.aion (day.bag) hold the same detections"
+    )
+    assert "hint: merge one of the two maps" in done.stderr
+    assert not out.exists()
+
+
+def test_maps_of_one_time_with_other_people_merge(tmp_path: Path) -> None:
+    """Two sensors over the same span that saw other people (a fleet at work at once) are
+    not one recording: they merge, each map's detections counted once."""
+    one = fixed_sensor_map(tmp_path / "left.aion", ("left.mcap",), T0, 1)
+    two = fixed_sensor_map(tmp_path / "right.aion", ("right.mcap",), T0, 2)
+    report = merge_map_files([one, two], tmp_path / "out.aion")
+    expected = sum(
+        run_steps(fixed_sensor_log(T0, seed=s)).state.accepted for s in (1, 2)
+    )
+    assert report.detections == expected
+    assert any("overlap or interleave" in n for n in report.notes)
+
+
+def test_maps_without_detections_are_not_taken_for_one_recording(tmp_path: Path) -> None:
+    """Two robots that saw nobody along one route over one span hold the same (empty)
+    entries; that does not make them one recording."""
+    import numpy as np
+
+    from tests.engine.engine_builders import graph
+    from tests.engine.state_logs import NODES
+
+    def empty(name: str) -> Path:
+        steps = [
+            lambda m: m.set_fixed_sensor(T0, T0 + 6 * W),
+            lambda m: m.add_graph(graph(T0, list(range(5)), np.array(NODES))),
+        ]
+        state = run_steps(steps, Mapper(CFG)).state
+        assert state.accepted == 0
+        return save_map(state, tmp_path / f"{name}.aion", (f"{name}.mcap",), log_span(T0))
+
+    report = merge_map_files([empty("a"), empty("b")], tmp_path / "out.aion")
+    assert report.detections == 0
+

@@ -1,0 +1,75 @@
+"""Maps of one recording read from two log files (:func:`check_same_recording`), which the
+provenance check of ``aion merge`` cannot see.
+
+A log is never counted twice: :mod:`aion_cli.merging` refuses a log (by sha256) that two
+maps hold. A recording written to two files (converted to another container, re-recorded
+with ``ros2 bag convert``, copied with other metadata) has two sha256s, so the maps built from
+each passed that check, and the merge counted every detection twice with nothing but the
+note that their times overlap (two robots at once overlap as well). Such maps hold the same
+entries (their cells, nodes, counts, speed and heading sums) over the same time span, byte
+for byte: the manifest's member checksums say so without reading a state. Two recordings of
+different people cannot give that (their sums would differ), so the merge refuses them; maps
+that hold no detection are left out (two robots that saw nobody along the same route may
+well hold the same empty entries).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from aion_cli.manifest import Manifest
+    from aion_cli.mapquery import MapHead
+
+#: the members that hold a map's entries (cells and nodes, their counts, speed and heading
+#: sums; the open window's included): equal in two maps, they hold the same detections
+ENTRY_PREFIX = "entry_"
+
+
+class TwinInput(Protocol):
+    """What the check reads of an input map."""
+
+    @property
+    def name(self) -> str: ...
+
+    head: MapHead
+    manifest: Manifest
+
+
+def check_same_recording(maps: Sequence[TwinInput]) -> None:
+    """:class:`~aion_cli.errors.InputError` naming two maps (and their logs) that hold the
+    same detections over the same time span (see the module docstring)."""
+    from aion_cli.errors import InputError
+
+    seen: dict[tuple[object, ...], TwinInput] = {}
+    for m in maps:
+        key = _fingerprint(m)
+        if key is None:
+            continue
+        first = seen.setdefault(key, m)
+        if first is m:
+            continue
+        logs = [", ".join(log.name for log in x.manifest.inputs) or "no log" for x in (first, m)]
+        raise InputError(
+            f"{first.name} ({logs[0]}) and {m.name} ({logs[1]}) hold the same detections over "
+            "the same time: one recording in two log files (converted or copied), whose "
+            "people would count twice",
+            hint="merge one of the two maps (aion info MAP lists a map's logs)",
+        )
+
+
+def _fingerprint(m: TwinInput) -> tuple[object, ...] | None:
+    """The map's time span and the checksums of its entry members; None for a map without
+    detections or without a span or member checksums (nothing to compare)."""
+    members = m.head.manifest.get("members")
+    if m.head.accepted <= 0 or m.manifest.start_ns is None or not isinstance(members, dict):
+        return None
+    sums = sorted(
+        (name, str(record.get("sha256")))
+        for name, record in members.items()
+        if name.startswith(ENTRY_PREFIX) and isinstance(record, dict)
+    )
+    if not sums:
+        return None
+    return (m.manifest.start_ns, m.manifest.end_ns, *sums)
