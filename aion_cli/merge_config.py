@@ -11,6 +11,10 @@ clock across daylight saving) merge on the newer clock when the older map's time
 daylight-saving time (its sums are the same on either clock), and are refused with a message
 of their own when it did. In UTC or a fixed offset the clocks are one and not recorded. A
 continued older map moves to the newer clock on the same condition (:func:`continued_config`).
+
+Two names of one zone are one zone: a robot set up with ``--tz Etc/UTC`` beside one on the
+default UTC, or ``Asia/Calcutta`` beside ``Asia/Kolkata`` (a link in the tz database), merge
+under the first map's spelling (:func:`~aion_cli.engine.temporal.zones.same_zone`).
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Protocol
 
+from aion_cli.engine.temporal.zones import same_zone
 from aion_cli.errors import ConfigError
 from aion_cli.fixed_sensor import FIXED_SENSOR_OVER
 from aion_cli.listing import first_few
@@ -52,15 +57,17 @@ def robot_observed(manifest: Manifest) -> bool:
 def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
     """Same model parameters and time zone in every map (:class:`ConfigError` naming what
     differs). Returns the config every map is to take when fixed-sensor maps differ only in
-    :data:`EXPOSURE_FIELDS` (the first with ``exposure`` on, else the first map's), else None
-    (every map has the same)."""
+    :data:`EXPOSURE_FIELDS` (the first with ``exposure`` on, else the first map's), when their
+    FreMEn clocks differ, or when they name one zone in two ways (``Etc/UTC`` and ``UTC``:
+    the first map's spelling), else None (every map has the same)."""
     first = maps[0]
-    base = first.head.config.to_dict()
+    configs = _one_spelling(maps)
+    base = configs[0].to_dict()
     exposure_only = False
-    clock_only = _clocks_differ(maps)
-    for m in maps[1:]:
+    clock_only = _clocks_differ(maps, configs)
+    for m, config in zip(maps[1:], configs[1:], strict=True):
         _check_zone(first, m)
-        other = m.head.config.to_dict()
+        other = config.to_dict()
         differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
         if clock_only:
             differ = [k for k in differ if k != "fremen_clock"]
@@ -85,10 +92,11 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
                 hint="rebuild one of them with the other's config (aion info MAP shows it; "
                 "aion build --config FILE)",
             )
-    if not (exposure_only or clock_only):
+    respelt = any(c is not m.head.config for m, c in zip(maps, configs, strict=True))
+    if not (exposure_only or clock_only or respelt):
         return None
-    weighed = [m.head.config for m in maps if m.head.config.exposure]
-    config = weighed[0] if weighed and exposure_only else first.head.config
+    weighed = [c for c in configs if c.exposure]
+    config = weighed[0] if weighed and exposure_only else configs[0]
     return config.replace(fremen_clock="standard") if clock_only else config
 
 
@@ -98,7 +106,8 @@ def _check_zone(first: MapInput, m: MapInput) -> None:
     another zone differs in ``fremen_clock`` too, which UTC does not record: listed among
     them, the difference read as 'fremen_clock None vs 'standard'')."""
     zones = [_zone(x.manifest.timezone or x.head.config.timezone) for x in (first, m)]
-    if zones[0] != zones[1]:
+    a, b = zones
+    if a != b and not (a is not None and b is not None and same_zone(a, b)):
         raise ConfigError(
             f"cannot merge {first.name} ({zones[0]}) and {m.name} ({zones[1]}): their days "
             "follow different time zones",
@@ -106,18 +115,31 @@ def _check_zone(first: MapInput, m: MapInput) -> None:
         )
 
 
-def _clocks_differ(maps: Sequence[MapInput]) -> bool:
+def _one_spelling(maps: Sequence[MapInput]) -> list[ModelConfig]:
+    """Each map's config, its zone spelt as the first map's where the two names are one zone
+    (``Asia/Calcutta`` beside ``Asia/Kolkata``: :func:`~aion_cli.engine.temporal.zones.same_zone`),
+    so that they compare equal and the maps merge under one config."""
+    zone = maps[0].head.config.timezone
+    return [
+        m.head.config.replace(timezone=zone)
+        if m.head.config.timezone != zone and same_zone(m.head.config.timezone, zone)
+        else m.head.config
+        for m in maps
+    ]
+
+
+def _clocks_differ(maps: Sequence[MapInput], configs: Sequence[ModelConfig]) -> bool:
     """Whether maps of one zone are on different FreMEn clocks (``fremen_clock``: some built
     before FreMEn followed daylight saving). They merge on the newer clock when no map on UTC
     held daylight-saving time (its sums are the same on either clock); otherwise
-    :class:`ConfigError`. Maps of different zones are left to the checks that name that."""
-    configs = [m.head.config for m in maps]
+    :class:`ConfigError`. Maps of different zones are left to the checks that name that.
+    ``configs``: the maps' configs, their zones in one spelling (:func:`_one_spelling`)."""
     if len({c.fremen_clock for c in configs}) < 2 or len({c.timezone for c in configs}) > 1:
         return False
     stale = [
         m.name
-        for m in maps
-        if m.head.config.fremen_clock == "utc" and _saved_daylight(m.head.config, m.manifest)
+        for m, c in zip(maps, configs, strict=True)
+        if c.fremen_clock == "utc" and _saved_daylight(c, m.manifest)
     ]
     if stale:
         its, it = ("their", "they were") if len(stale) > 1 else ("its", "it was")

@@ -5,7 +5,8 @@ order with the engine's :func:`~aion_cli.engine.merge.merge_maps` and writes the
 atomically with a manifest that accounts for every log. The rules:
 
 * **Same model.** Every map must have been built with the same model parameters (time zone
-  included): :class:`~aion_cli.errors.ConfigError` naming the parameters that differ.
+  included; two names of one zone, ``Etc/UTC`` and ``UTC``, are one zone):
+  :class:`~aion_cli.errors.ConfigError` naming the parameters that differ.
 * **Provenance.** The output's ``inputs`` are every input map's logs (path, name, size,
   sha256), in time order. A log (by sha256) that two maps hold is refused, naming both maps
   and the log: its detections would be counted twice, and a log is never counted twice. The
@@ -446,7 +447,9 @@ def _write(
         counts=counts | stats,
         graph_source=f"merge: {report.graph_source}",
         observation=observation,
-        timezone=maps[0].manifest.timezone,
+        # the merged config's spelling where the maps name one zone in two (Etc/UTC, UTC)
+        timezone=zones.pop() if len(zones := {m.manifest.timezone for m in maps}) == 1
+        else merged.config.timezone,
         families=family_summary(merged),
         merged_from=tuple(m.file.to_dict() for m in maps),
         lineage=report.lineage,

@@ -188,3 +188,54 @@ def test_maps_without_detections_are_not_taken_for_one_recording(tmp_path: Path)
     report = merge_map_files([empty("a"), empty("b")], tmp_path / "out.aion")
     assert report.detections == 0
 
+
+def _zoned(path: Path, start: int, seed: int, zone: str) -> Path:
+    """A fixed sensor's map built and saved in ``zone`` (spelt as given, as --tz writes it)."""
+    state = run_steps(fixed_sensor_log(start, seed=seed), Mapper(CFG.replace(timezone=zone))).state
+    assert state.config.timezone == zone
+    return save_map(state, path, (path.with_suffix(".mcap").name,), log_span(start), zone)
+
+
+def test_two_names_of_one_zone_merge_as_that_zone(tmp_path: Path) -> None:
+    """Robots set up with --tz Etc/UTC and with the default UTC, or with Asia/Calcutta and
+    Asia/Kolkata (one zone, the first name a link to the second): the merge refused them as
+    'their days follow different time zones'. They merge, as the maps of one spelling do,
+    under the spelling of the first map given."""
+    import zipfile
+
+    from aion_cli.formats.mapfile import read_manifest
+
+    def members(path: Path) -> dict[str, bytes]:
+        with zipfile.ZipFile(path) as z:
+            return {n: z.read(n) for n in z.namelist() if n != "manifest.json"}
+
+    one = _zoned(tmp_path / "utc.aion", T0, 1, "UTC")
+    same = _zoned(tmp_path / "later_utc.aion", T0 + 2 * DAY, 2, "UTC")
+    etc = _zoned(tmp_path / "later_etc.aion", T0 + 2 * DAY, 2, "Etc/UTC")
+    merge_map_files([one, same], tmp_path / "ref.aion")
+    merge_map_files([one, etc], tmp_path / "etc.aion")
+    assert members(tmp_path / "etc.aion") == members(tmp_path / "ref.aion")
+    for given, zone in (([one, etc], "UTC"), ([etc, one], "Etc/UTC")):
+        merge_map_files(given, tmp_path / "out.aion")
+        manifest = read_manifest(tmp_path / "out.aion")
+        assert (manifest["timezone"], manifest["config"]["timezone"]) == (zone, zone)
+    kolkata = _zoned(tmp_path / "kolkata.aion", T0, 1, "Asia/Kolkata")
+    calcutta = _zoned(tmp_path / "calcutta.aion", T0 + 2 * DAY, 2, "Asia/Calcutta")
+    merge_map_files([calcutta, kolkata], tmp_path / "india.aion")
+    manifest = read_manifest(tmp_path / "india.aion")
+    assert (manifest["timezone"], manifest["config"]["timezone"]) == ("Asia/Calcutta",) * 2
+
+
+def test_zones_that_only_look_alike_are_still_refused(tmp_path: Path) -> None:
+    """Europe/Berlin and Europe/Paris keep one clock today but not in their history: two
+    zones, refused as before."""
+    from aion_cli.engine.temporal.zones import same_zone
+
+    assert same_zone("US/Eastern", "America/New_York")
+    assert same_zone("+00:00", "Etc/UTC")
+    assert not same_zone("Europe/Berlin", "Europe/Paris")
+    assert not same_zone("UTC", "+01:00")
+    berlin = _zoned(tmp_path / "berlin.aion", T0, 1, "Europe/Berlin")
+    paris = _zoned(tmp_path / "paris.aion", T0 + 2 * DAY, 2, "Europe/Paris")
+    with pytest.raises(ConfigError, match="different time zones"):
+        merge_map_files([berlin, paris], tmp_path / "out.aion")

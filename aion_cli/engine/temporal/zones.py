@@ -73,3 +73,40 @@ def _keys_by_lower_case() -> dict[str, str]:
     """Every IANA name this machine knows, by its lower-case form (read once, and only for a
     name ``ZoneInfo`` did not find: no two names differ by case alone)."""
     return {key.lower(): key for key in available_timezones()}
+
+
+def same_zone(a: str, b: str) -> bool:
+    """Whether the zones called ``a`` and ``b`` keep the same clock at every time: one
+    spelling (:func:`zone_key`), or IANA names of one zone's data (``Asia/Calcutta`` is a
+    link to ``Asia/Kolkata``, ``Etc/UTC`` to ``UTC``, ``US/Eastern`` to
+    ``America/New_York``: their tz database files are the same bytes). Zones whose data
+    cannot be found compare by spelling only."""
+    try:
+        keys = zone_key(a), zone_key(b)
+    except ConfigError:
+        return a == b
+    if keys[0] == keys[1]:
+        return True
+    data = [_zone_data(k) for k in keys]
+    return data[0] is not None and data[0] == data[1]
+
+
+@cache
+def _zone_data(key: str) -> bytes | None:
+    """The tz database file (TZif) of the zone ``key``, where :class:`ZoneInfo` finds it (the
+    system's ``TZPATH``, then the ``tzdata`` package); None for a fixed offset or a zone not
+    found."""
+    import zoneinfo
+    from importlib import resources
+    from pathlib import Path
+
+    if key.startswith(("UTC+", "UTC-")):
+        return None  # a fixed offset: no file, and one spelling each
+    for root in zoneinfo.TZPATH:
+        path = Path(root, key)
+        if path.is_file():
+            return path.read_bytes()
+    try:
+        return resources.files("tzdata.zoneinfo").joinpath(*key.split("/")).read_bytes()
+    except (ModuleNotFoundError, OSError):
+        return None
