@@ -54,23 +54,30 @@ def robot_observed(manifest: Manifest) -> bool:
     return not (text.startswith(FIXED_SENSOR_OVER) or text in ("fixed", "none"))
 
 
-def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
+def check_compatible(
+    maps: Sequence[MapInput], notes: list[str] | None = None
+) -> ModelConfig | None:
     """Same model parameters and time zone in every map (:class:`ConfigError` naming what
     differs). Returns the config every map is to take when fixed-sensor maps differ only in
     :data:`EXPOSURE_FIELDS` (the first with ``exposure`` on, else the first map's), when their
-    FreMEn clocks differ, or when they name one zone in two ways (``Etc/UTC`` and ``UTC``:
-    the first map's spelling), else None (every map has the same)."""
+    FreMEn clocks differ, when they name one zone in two ways (``Etc/UTC`` and ``UTC``: the
+    first map's spelling), or when they differ in :func:`planning` parameters (the first
+    map's, with a note in ``notes``), else None (every map has the same)."""
     first = maps[0]
     configs = _one_spelling(maps)
     base = configs[0].to_dict()
     exposure_only = False
     clock_only = _clocks_differ(maps, configs)
+    planned: dict[str, list[str]] = {}  # a differing planning parameter: each map's value
     for m, config in zip(maps[1:], configs[1:], strict=True):
         _check_zone(first, m)
         other = config.to_dict()
         differ = sorted(k for k in base.keys() | other.keys() if base.get(k) != other.get(k))
         if clock_only:
             differ = [k for k in differ if k != "fremen_clock"]
+        for k in filter(planning, differ):
+            planned.setdefault(k, []).append(f"{other.get(k)!r} in {m.name}")
+        differ = [k for k in differ if not planning(k)]
         if differ and set(differ) <= EXPOSURE_FIELDS:
             robots = [x.name for x in (first, m) if robot_observed(x.manifest)]
             if not robots:
@@ -93,11 +100,33 @@ def check_compatible(maps: Sequence[MapInput]) -> ModelConfig | None:
                 "aion build --config FILE)",
             )
     respelt = any(c is not m.head.config for m, c in zip(maps, configs, strict=True))
-    if not (exposure_only or clock_only or respelt):
+    if not (exposure_only or clock_only or respelt or planned):
         return None
     weighed = [c for c in configs if c.exposure]
     config = weighed[0] if weighed and exposure_only else configs[0]
+    if planned:
+        config = config.replace(**{k: base[k] for k in planned})
+        if notes is not None:
+            notes.append(_planning_note(first.name, base, planned))
     return config.replace(fremen_clock="standard") if clock_only else config
+
+
+def planning(parameter: str) -> bool:
+    """Whether ``parameter`` only sets how ``aion plan`` plans on a map (``plan_speed``, the
+    ``plan_w_*`` weights, ...): read at query time, never by a build, so maps that differ in
+    it hold the same counts and merge, the merged map planning as the first map given."""
+    return parameter.startswith("plan_")
+
+
+def _planning_note(first: str, base: dict[str, object], planned: dict[str, list[str]]) -> str:
+    """The note for maps that plan with other parameters than the first map ``first``."""
+    listed = "; ".join(
+        f"{k} {base.get(k)!r} in {first}, {', '.join(v)}" for k, v in planned.items()
+    )
+    return (
+        f"the maps plan with different parameters ({listed}): the merged map plans with "
+        f"{first}'s (its counts are the same either way; aion plan --speed sets a plan's speed)"
+    )
 
 
 def _check_zone(first: MapInput, m: MapInput) -> None:

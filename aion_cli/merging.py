@@ -6,7 +6,8 @@ atomically with a manifest that accounts for every log. The rules:
 
 * **Same model.** Every map must have been built with the same model parameters (time zone
   included; two names of one zone, ``Etc/UTC`` and ``UTC``, are one zone):
-  :class:`~aion_cli.errors.ConfigError` naming the parameters that differ.
+  :class:`~aion_cli.errors.ConfigError` naming the parameters that differ. The planner's
+  (``plan_*``, read by ``aion plan`` only) may differ: the first map's are kept, with a note.
 * **Provenance.** The output's ``inputs`` are every input map's logs (path, name, size,
   sha256), in time order. A log (by sha256) that two maps hold is refused, naming both maps
   and the log: its detections would be counted twice, and a log is never counted twice. The
@@ -157,7 +158,7 @@ def merge_map_files(
                 "aion build --part, alone is made a map)",
                 hint=_HINT,
             )
-        config = check_compatible(maps)
+        config = check_compatible(maps, report.notes)
         maps.sort(key=lambda m: (m.start() is not None, m.start() or 0))
         inputs = _check_logs(maps)
         check_same_recording(maps)  # one recording in two log files (two sha256s)

@@ -239,3 +239,36 @@ def test_zones_that_only_look_alike_are_still_refused(tmp_path: Path) -> None:
     paris = _zoned(tmp_path / "paris.aion", T0 + 2 * DAY, 2, "Europe/Paris")
     with pytest.raises(ConfigError, match="different time zones"):
         merge_map_files([berlin, paris], tmp_path / "out.aion")
+
+
+def test_maps_that_plan_with_other_parameters_merge_with_a_note(tmp_path: Path) -> None:
+    """A robot whose map was built with another plan_speed or planner weight (read by aion
+    plan only, never by a build) was refused with 'rebuild one of them'. Its counts are
+    those of the default config: the maps merge, the merged map plans as the first given,
+    and a note names the values left behind."""
+    import zipfile
+
+    from aion_cli.formats.mapfile import read_manifest
+
+    def members(path: Path) -> dict[str, bytes]:
+        with zipfile.ZipFile(path) as z:
+            return {n: z.read(n) for n in z.namelist() if n != "manifest.json"}
+
+    planner = CFG.replace(plan_speed=1.5, plan_w_flow=2.0)
+    one = _robot(tmp_path, "robot1", T0, 1)
+    two = _robot(tmp_path, "robot2", T0 + 2 * DAY, 2, Mapper(planner))
+    default = _robot(tmp_path, "robot3", T0 + 2 * DAY, 2)
+    ref = merge_map_files([one, default], tmp_path / "ref.aion")
+    assert not any("plan" in n for n in ref.notes)
+    report = merge_map_files([one, two], tmp_path / "fleet.aion")
+    assert members(tmp_path / "fleet.aion") == members(tmp_path / "ref.aion")
+    assert read_manifest(tmp_path / "fleet.aion")["config"]["plan_speed"] == 1.0
+    note = next(n for n in report.notes if n.startswith("the maps plan with different"))
+    assert f"plan_speed 1.0 in {one}, 1.5 in {two}" in note
+    assert f"plan_w_flow 1.0 in {one}, 2.0 in {two}" in note
+    merge_map_files([two, one], tmp_path / "reversed.aion")
+    assert read_manifest(tmp_path / "reversed.aion")["config"]["plan_speed"] == 1.5
+    wider = _robot(tmp_path, "robot4", T0 + 2 * DAY, 2, Mapper(planner.replace(cell_size=0.25)))
+    with pytest.raises(ConfigError) as exc:
+        merge_map_files([one, wider], tmp_path / "out.aion")
+    assert "(cell_size 0.5 vs 0.25)" in exc.value.message  # the model, not the planner
