@@ -3,7 +3,8 @@ zone ``aion simulate --tz`` writes into its logs: MCAP, ROS 1 bag, rosbag2).
 
 Without ``--tz`` a new map takes the zone its logs declare (a note says so); ``--tz`` or a
 continued map's zone that differs from it is kept, with a warning: a scene simulated in
-Europe/London and built in UTC has its summer hours an hour off.
+Europe/London and built in UTC has its summer hours an hour off. Two names of one zone (GB and
+Europe/London, Etc/UTC and UTC) do not differ.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ def build_zone(
     """The zone a build follows (``given``: ``--tz`` as resolved, None for the default; the
     declared zone when neither it nor a continued map's zone, ``map_zone``, is set), and the
     notes and warnings to give about the zones ``logs`` declare."""
+    from aion_cli.engine.temporal.zones import same_zone
     from aion_cli.errors import AionError
     from aion_cli.formats.log_zone import declared_zones
     from aion_cli.timeparse import resolve_zone
@@ -54,7 +56,7 @@ def build_zone(
     (zone,) = zones
     if given is not None or map_zone is not None:
         follows = given if given is not None else map_zone
-        if follows == zone:
+        if follows == zone or (follows is not None and same_zone(follows, zone)):  # GB, London
             return given, [], []
         whose = f"--tz {given}" if given is not None else f"the continued map's zone {map_zone}"
         return given, [], [
@@ -75,6 +77,7 @@ def held_out_zone_warnings(map_zone: str, logs: Sequence[Path]) -> list[str]:
     """A warning per zone the held-out ``logs`` declare that is not the map's (``aion
     evaluate holdout``): the people in them keep another zone's hours than the map learnt,
     so its daily rhythm and hour-of-day profile are judged hours off."""
+    from aion_cli.engine.temporal.zones import same_zone
     from aion_cli.errors import AionError
     from aion_cli.formats.log_zone import declared_zones
     from aion_cli.timeparse import resolve_zone
@@ -89,7 +92,7 @@ def held_out_zone_warnings(map_zone: str, logs: Sequence[Path]) -> list[str]:
             zone = resolve_zone(text).name
         except AionError:
             continue  # a zone this machine does not know: as if none were declared
-        if zone != ours:
+        if zone != ours and not same_zone(zone, ours):
             others.setdefault(zone, []).append(Path(path).name)
     return [
         f"{', '.join(files)} declare{'s' if len(files) == 1 else ''} the time zone {zone} "
