@@ -200,10 +200,15 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
                 hint="give the zone once, with --tz or in the config file",
             )
         return config.replace(timezone=zone)
+    from aion_cli.engine.temporal.zones import same_zone
+
     old = previous
-    if given is not None and given.timezone == ModelConfig().timezone:
-        # the file's zone is the default, which --tz replaced when the map was made: the
-        # map's zone is compared with --tz below, the file's other parameters here
+    if given is not None and (
+        given.timezone == ModelConfig().timezone or same_zone(given.timezone, old.timezone)
+    ):
+        # the file's zone is the default, which --tz replaced when the map was made (the
+        # map's zone is compared with --tz below, the file's other parameters here), or the
+        # map's under another name (Etc/UTC for UTC)
         given = given.replace(timezone=old.timezone)
     if given is not None and given.fremen_clock != old.fremen_clock:
         # the clock is the map's, not a parameter to choose: an older map keeps its own
@@ -219,7 +224,7 @@ def resolve_config(opts: BuildOptions, previous: ModelConfig | None) -> ModelCon
             hint="a map keeps its model parameters; build a new map to change them (or leave "
             "out --config: a continued map keeps its own)",
         )
-    if zone is not None and zone != old.timezone:
+    if zone is not None and not same_zone(zone, old.timezone):  # GB is Europe/London
         raise ConfigError(
             f"the map's days and profiles follow the time zone {old.timezone}; "
             f"--tz {zone} differs",

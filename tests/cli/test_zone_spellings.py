@@ -124,3 +124,30 @@ def test_an_empty_zone_is_worded_alike_by_every_command(
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ConfigError, match=r"^empty time zone$"):
         ModelConfig(timezone=empty)
+
+
+def test_another_name_of_the_maps_zone_continues_it(
+    logs: tuple[Path, Path, Path], tmp_path: Path
+) -> None:
+    """Etc/UTC is UTC, Asia/Calcutta is Asia/Kolkata (links in the tz database). A map built
+    in UTC continued with --tz Etc/UTC (or a --config naming it) was refused: "the map's days
+    and profiles follow the time zone UTC; --tz Etc/UTC differs". The map is continued in its
+    own zone and name, the map continuing it without --tz gives."""
+    import zipfile
+
+    def members(path: Path) -> dict[str, bytes]:
+        with zipfile.ZipFile(path) as z:
+            return {n: z.read(n) for n in z.namelist() if n != "manifest.json"}
+
+    first, later, _ = logs
+    etc = tmp_path / "etc.toml"
+    etc.write_text('[model]\ntimezone = "Etc/UTC"\n')
+    for zone, alias in (("UTC", "Etc/UTC"), ("Asia/Kolkata", "Asia/Calcutta")):
+        base = tmp_path / f"{alias.replace('/', '_')}.aion"
+        ok("build", first, "-o", base, "--tz", zone)
+        ok("build", later, "--map", base, "-o", tmp_path / "plain.aion")
+        ok("build", later, "--map", base, "-o", tmp_path / "alias.aion", "--tz", alias)
+        assert members(tmp_path / "alias.aion") == members(tmp_path / "plain.aion")
+        assert run_json("info", tmp_path / "alias.aion", "--format", "json")["timezone"] == zone
+    ok("build", later, "--map", tmp_path / "Etc_UTC.aion", "-o", tmp_path / "c.aion",
+       "--config", etc)
