@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from aion_cli.errors import path_word
 from tests.cli.conftest import run, run_json
 
 ATC = "1351038020.0,1,0.0,0.0,1.0,0.0\n1351038021.0,1,1.0,0.0,1.0,0.0\n"
@@ -19,7 +20,7 @@ def test_atc_without_tz_names_osaka_and_the_build_that_gives_local_hours(tmp_pat
     log = tmp_path / "atc.mcap"
     result = run("convert", src, "--layout", "atc", "-o", log)
     assert result.exit_code == 0, result.stderr
-    command = "aion build atc.mcap --tz Asia/Tokyo"
+    command = f"aion build {path_word(log)} --tz Asia/Tokyo"
     assert "recorded in Osaka (Asia/Tokyo)" in result.stderr
     assert command in result.stderr
     local = run_json("build", log, "-o", tmp_path / "l.aion", "--tz", "Asia/Tokyo",
