@@ -41,7 +41,7 @@ from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
-from aion_cli.engine.temporal.slot_sums import FixedSlots
+from aion_cli.engine.temporal.slot_sums import FixedSlots, sum_in_order
 from aion_cli.engine.types import F64, I64
 
 C128 = npt.NDArray[np.complex128]
@@ -220,15 +220,17 @@ def _observed_sum(
         return out
     n = per_bin.shape[0]
     bins = np.flatnonzero(per_bin.any(axis=0))
-    # every (entry, bin) pair in one evaluation, entries down and bins across (indices that
-    # broadcast: no repeated pair arrays, the same values), then the bins added in order
-    at_e, at_h = np.arange(n)[:, None], bins[None, :]
+    if bins.size == 0:
+        return np.zeros(n)
+    # every (bin, entry) pair in one evaluation, bins down and entries across (indices that
+    # broadcast: no repeated pair arrays, the same values; static: one row for every bin),
+    # times the windows, then the bins added in order, one row after the other (a reduction
+    # over the outer axis, as the running total per bin added them: every term is ≥ +0, so
+    # starting from the first term instead of 0.0 + it changes no bit)
+    at_h, at_e = bins[:, None], np.arange(n)[None, :]
     lam = np.maximum(fc.flow(name, at_e, at_h, np.zeros((1, 1))), floor)
-    lam = np.broadcast_to(lam, (n, bins.size))  # static: one column, the same for every bin
-    total = np.zeros(n)
-    for j, b in enumerate(bins.tolist()):
-        total += lam[:, j] * per_bin[:, b]
-    return total
+    terms = np.ascontiguousarray(lam * per_bin.T[bins])
+    return sum_in_order(terms)
 
 
 def _fremen_sums(
