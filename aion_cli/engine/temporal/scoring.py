@@ -296,8 +296,8 @@ def _per_window_sums(
     The (entry, window) pairs are every entry with every fixed-sensor slot (entry-major),
     then the entries' own pairs, summed in chunks of ``_PAIRS`` pairs, each chunk's sums
     (pair order) added to the total. The fixed-sensor pairs of a chunk are evaluated as one
-    (slot × order × entry) block (:class:`~aion_cli.engine.temporal.slot_sums.FixedSlots`:
-    the slots' phasors gathered once per block for every order, no per-pair copies of
+    (order × slot × entry) block (:class:`~aion_cli.engine.temporal.slot_sums.FixedSlots`:
+    the slots' phasors gathered once per block and order, no per-pair copies of
     coefficients and rates, sums along the slot axis), which gives the same floating-point
     sums as adding pair by pair (issue 15: this was the largest part of closing a day under
     a fixed sensor, where every entry has every window)."""
