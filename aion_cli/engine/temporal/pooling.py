@@ -129,7 +129,14 @@ def count_sums(counts: Any, axis: int) -> Any:
     if counts.dtype.kind == "u":
         wide = np.uint32 if counts.dtype.itemsize <= 2 else np.uint64
         return counts.sum(axis=axis, dtype=wide)
+    if counts.ndim == 3 and counts.dtype == np.float64:
+        # whole numbers below 2^53 sum to the same float in any order: einsum's plain loops
+        # (about twice as fast as sum's here, issue 15) give the bits sum gives
+        return np.einsum(_SUBSCRIPTS[axis], counts)
     return counts.sum(axis=axis)
+
+
+_SUBSCRIPTS = {0: "evh->vh", 1: "evh->eh", 2: "evh->ev"}
 
 
 def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
