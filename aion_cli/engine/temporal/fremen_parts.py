@@ -135,7 +135,7 @@ class FremenParts:
         self._check_sums()
         r = self.rows[pos]
         balance = rows_of(self.state.obs.fourier, r) + self.state.glob.fourier[0]  # Σ e^{iωt}
-        gamma: C128 = rows_of(self.state.cnt_fourier, r).sum(axis=1)
+        gamma: C128 = value_sums(rows_of(self.state.cnt_fourier, r))
         gamma -= self.rate_total[pos, None] * balance
         gamma /= np.where(self.observed[pos], self.windows[pos], 1.0)[:, None]
         return gamma
@@ -264,3 +264,15 @@ def _running_sum(terms: F64) -> F64:
     for j in range(1, terms.shape[-1]):
         terms[..., j] += terms[..., j - 1]
     return terms
+
+
+def value_sums(sums: C128) -> C128:
+    """``sums.sum(axis=1)`` of (entry, value bin, period) Fourier sums, bit for bit: numpy
+    adds a middle axis's planes one after the other from the first, einsum the same planes
+    in the same order from 0 (0 + z is z: these sums hold no −0), in a third less time
+    (issue 15: a day close sums every candidate's rows). Other shapes go to numpy."""
+    if sums.ndim == 3 and sums.shape[2] >= 2 and sums.dtype == np.complex128:
+        out: C128 = np.einsum("evk->ek", sums)
+        return out
+    summed: C128 = sums.sum(axis=1)
+    return summed
