@@ -116,8 +116,9 @@ class Forecaster(FremenParts):
         for a in range(0, e, BLOCK):  # one pass, block by block: no [E, H] temporaries
             rows = r[a : a + BLOCK]
             w = rows_of(state.obs.profile, rows) + self._glob_profile  # W of the block
-            shape_sum[a : a + BLOCK] = (w * pool.shape[groups[a : a + BLOCK]]).sum(axis=1)
-            map_sum[a : a + BLOCK] = (w * pool.map_shape).sum(axis=1)
+            # row sums of the profile bins: numpy's own order, in column passes (row_sums)
+            shape_sum[a : a + BLOCK] = row_sums(w * pool.shape[groups[a : a + BLOCK]])
+            map_sum[a : a + BLOCK] = row_sums(w * pool.map_shape)
         # μ = N / max(W, 1): less than one window's worth of watching (a robot that passed a
         # place for seconds, ``ModelConfig.exposure``) counts as one window (module docstring),
         # unless only a fixed sensor watched the entry and its logs recorded less than a
