@@ -165,12 +165,23 @@ def _add_at(flat: np.ndarray, at: I64, added: np.ndarray, fresh: npt.NDArray[np.
     read yet, and reading a page before writing it costs the kernel a second fault. ``0 +
     x`` is ``x + 0`` to the bit (a −0 sum becomes +0 either way)."""
     if not fresh.any():
-        flat[at] += added
+        _add_unique(flat, at, added)
         return
     flat[at[fresh]] = added[fresh] + flat.dtype.type(0)
     old = ~fresh
     if old.any():
-        flat[at[old]] += added[old]
+        _add_unique(flat, at[old], added[old])
+
+
+def _add_unique(flat: np.ndarray, at: I64, added: np.ndarray) -> None:
+    """``flat[at] += added`` for unique ``at``: the same additions (``flat[i] + added[j]``,
+    once each). A 1-D array (the profile counts) by ``np.add.at``, one pass where the fancy
+    form gathers a copy, adds and scatters it back (issue 15: several times faster on a day's
+    few thousand counts); rows (the Fourier sums) by the fancy form, faster for rows."""
+    if flat.ndim == 1:
+        np.add.at(flat, at, added)
+    else:
+        flat[at] += added
 
 
 def _profile_for(state: TemporalState, keys: I64, added: F64) -> F64:
