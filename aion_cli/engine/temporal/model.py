@@ -28,7 +28,7 @@ from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
-from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
+from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
 from aion_cli.engine.temporal.scoring import close_day
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import window_centre_ns
@@ -254,8 +254,8 @@ class Predictor:
         """The forecasts of entries ``rows`` of ``state`` (a query view); ``components``:
         FreMEn components stored in the map for these very rows (a state read without its
         Fourier sums)."""
-        counts = entry_counts(state, rows)  # summed once for the pooling and the forecast
-        pool = PoolStats.of(params, state, rows, groups, n_groups, counts)
+        counts, totals = entry_sums(state, rows)  # summed once for the pooling and the forecast
+        pool = PoolStats.of(params, state, rows, groups, n_groups, counts, totals)
         fc = Forecaster(params, state, rows, groups, pool, components, counts)
         flow_choice, dir_choice, map_choice = choose(
             params, state, rows, groups, n_groups, components

@@ -56,10 +56,13 @@ class PoolStats:
         groups: I64,
         n_groups: int,
         counts: F64 | None = None,
+        totals: Any = None,
     ) -> PoolStats:
         """Pool the entries ``rows`` (all live entries) into their groups. ``counts``: their
         :func:`entry_counts`, when the caller has them already (a query's forecast needs them
-        for every entry too; a day's scoring builds them block by block instead)."""
+        for every entry too; a day's scoring builds them block by block instead); ``totals``:
+        their detections per profile bin S[e, h], when :func:`entry_sums` summed them with
+        the counts."""
         b, h = params.bins, params.n_profile
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
@@ -68,8 +71,8 @@ class PoolStats:
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
-            block = rows_of(state.cnt_profile, r)
-            s_e = count_sums(block, 1)
+            block = rows_of(state.cnt_profile, r) if totals is None or counts is None else None
+            s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
             w_e = rows_of(state.obs.profile, r) + glob
             s_g += _group_sums(g, n_groups, s_e)
             w_g += _group_sums(g, n_groups, w_e)
@@ -99,10 +102,26 @@ class PoolStats:
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
     """N[e, v]: the detections of entries ``rows`` in each value bin (their profile bins
     summed, exactly), float64[E, V], block by block (no [E, V, H] temporary)."""
+    return entry_sums(state, rows, block, totals=False)[0]
+
+
+def entry_sums(
+    state: TemporalState, rows: I64, block: int = 1 << 10, totals: bool = True
+) -> tuple[F64, Any]:
+    """:func:`entry_counts` and, for at most one pooling block of entries (no whole-map [E,
+    H] array), S[e, h], their detections per profile bin (all value bins), as
+    :meth:`PoolStats.of` sums them: each block of the counts summed both ways while it is in
+    cache (issue 15: a day close read every entry's counts twice). S is None for more
+    entries or without ``totals``."""
     out = np.empty((rows.size, state.cnt_profile.shape[1]))
+    keep = totals and rows.size <= _POOL_BLOCK
+    parts = []
     for a in range(0, rows.size, block):
-        out[a : a + block] = count_sums(rows_of(state.cnt_profile, rows[a : a + block]), 2)
-    return out
+        counts = rows_of(state.cnt_profile, rows[a : a + block])
+        out[a : a + block] = count_sums(counts, 2)
+        if keep:
+            parts.append(count_sums(counts, 1))
+    return out, np.concatenate(parts) if parts else None
 
 
 def borrowed(r: F64, mean: F64) -> F64:

@@ -40,7 +40,7 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
-from aion_cli.engine.temporal.pooling import PoolStats, entry_counts
+from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
 from aion_cli.engine.temporal.slot_sums import FixedSlots, sum_in_order
 from aion_cli.engine.types import F64, I64
 
@@ -115,8 +115,8 @@ def _score(
         return candidates
     # every live entry's detections per value bin, summed once: the pooling and each block's
     # forecaster read them (the same sums, row by row, as each would compute)
-    counts = entry_counts(state, live_rows)
-    pool = PoolStats.of(params, state, live_rows, groups, n_groups, counts)
+    counts, totals = entry_sums(state, live_rows)
+    pool = PoolStats.of(params, state, live_rows, groups, n_groups, counts, totals)
     obs_order, obs_cut = _pairs_by_block(candidates, day.obs_entry)
     cnt_order, cnt_cut = _pairs_by_block(candidates, day.cnt_entry)
     for k, a in enumerate(range(0, candidates.size, _ENTRIES)):
