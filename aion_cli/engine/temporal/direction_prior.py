@@ -149,8 +149,9 @@ def log_gamma(x: F64) -> F64:
     y = np.where(small, x + 8.0, x)
     inverse = 1.0 / y
     square = inverse * inverse
-    series = np.zeros_like(y)
-    for coefficient in reversed(_STIRLING):
+    # Horner's scheme from the last coefficient (0 · square + c is c: the first step is a copy)
+    series = np.full_like(y, _STIRLING[-1])
+    for coefficient in reversed(_STIRLING[:-1]):
         series *= square
         series += coefficient
     out: F64 = y - 0.5

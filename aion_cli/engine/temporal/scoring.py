@@ -179,12 +179,13 @@ def _score_block(
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     fixed = (fixed_slots, fixed_share)
     fremen = _fremen_sums(fc, per_bin, fixed, (obs_e, obs_s, obs_w), t_s, floor)
+    observed_bins = np.flatnonzero(per_bin.any(axis=0))  # the same for every family
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
         lam_pairs = np.maximum(fc.flow(name, ce, pair_h, pair_t), floor)
         lam_pairs *= cw
-        sum_lam = _observed_sum(fc, name, per_bin, floor, fremen)
+        sum_lam = _observed_sum(fc, name, per_bin, floor, fremen, observed_bins)
         log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
         # Σ min((n − λ)² / λ, K²) over the windows with detections, λ over the empty ones:
         # the pairs' capped terms less their λ, plus every observed window's λ
@@ -212,14 +213,17 @@ def _observed_sum(
     per_bin: F64,
     floor: float,
     fremen: F64,
+    bins: I64 | None = None,
 ) -> F64:
     """Σ over each entry's observed windows of max(λ, floor): in closed form per profile bin
-    for the periodic families, from ``fremen`` (:func:`_fremen_sums`) for FreMEn."""
+    for the periodic families, from ``fremen`` (:func:`_fremen_sums`) for FreMEn. ``bins``:
+    the profile bins some entry was observed in, when the caller found them already."""
     if name.startswith("fremen"):
         out: F64 = fremen[int(name.removeprefix("fremen")) - 1]
         return out
     n = per_bin.shape[0]
-    bins = np.flatnonzero(per_bin.any(axis=0))
+    if bins is None:
+        bins = np.flatnonzero(per_bin.any(axis=0))
     if bins.size == 0:
         return np.zeros(n)
     # every (bin, entry) pair in one evaluation, bins down and entries across (indices that
