@@ -200,7 +200,7 @@ def _profile_for(state: TemporalState, keys: I64, added: F64) -> F64:
 
 _SPARSE_PAIRS = 1 << 13
 """A day of more (row, slot) pairs than this sums its phasors by ``scipy.sparse``, faster than
-numpy there by more than the import costs (issue 15: ~3 against ~0.7 ms for 19,000 pairs)."""
+numpy there by more than the import costs (issue 15: ~6 against ~0.7 ms for 19,000 pairs)."""
 
 
 def _sum_phasors(row: I64, slot: I64, weight: F64, n_rows: int, phasor: C128) -> C128:
