@@ -77,7 +77,7 @@ def query_time(
 
     zone = query_zone(tz, default)
     if after_ns is not None and isinstance(time, str):
-        return parse_time(time, zone, from_ns(after_ns, zone)), zone
+        return parse_time(time, zone, start=from_ns(after_ns, zone)), zone
     return to_ns(time, zone), zone
 
 

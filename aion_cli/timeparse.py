@@ -69,6 +69,7 @@ _RE_CLOCK = re.compile(rf"^{_CLOCK}$")
 _RE_CLOCK12 = re.compile(r"^(\d{1,2})(?::(\d{2})(?::(\d{2}))?)?\s*(am|pm)$")
 _RE_DAYWORD = re.compile(r"^([a-z]+)(?:\s+(.+))?$")
 _RE_RELATIVE = re.compile(r"^(?:now\s*)?([+-])\s*((?:\d+(?:\.\d+)?\s*[a-z]+\s*)+)$")
+_RE_NOW = re.compile(r"^now(?![a-z])")  # the current moment (now, now+2h), whatever it ends
 RE_REL_PART = re.compile(r"(\d+(?:\.\d+)?)\s*([a-z]+)")
 _RE_UNIX = re.compile(r"^@?(-?\d+(?:\.\d+)?)\s*(s|ns)?$")
 _RE_ONE_DIGIT_HOUR = re.compile(r"^(\d{4}-\d{2}-\d{2}[ T])(\d:)")
@@ -218,7 +219,9 @@ def one_wall_clock(start: str, end: str, zone: Zone) -> bool:
     utc = resolve_zone("UTC")
     try:
         a = parse_time(_split_zone(" ".join(start.strip().split()), zone)[0], utc)
-        b = parse_time(_split_zone(" ".join(end.strip().split()), zone)[0], utc, from_ns(a, utc))
+        b = parse_time(
+            _split_zone(" ".join(end.strip().split()), zone)[0], utc, start=from_ns(a, utc)
+        )
     except TimeFormatError:
         return False
     return a == b
@@ -260,11 +263,13 @@ def _clock(groups: tuple[str | None, ...], text: str) -> time:
 
 
 # -- parsing -----------------------------------------------------------------------------------
-def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
+def parse_time(
+    text: str, zone: Zone, now: datetime | None = None, *, start: datetime | None = None
+) -> int:
     """Parse ``text`` (see the module docstring) -> int nanoseconds since the UNIX epoch.
-
     ``now`` (aware) pins the reference for relative forms; default: the current time.
-    """
+    ``start`` (aware): the start of the span ``text`` ends, which a clock alone, a day word or
+    ``+2h`` counts from instead; ``now`` (``now+2h``) is still the current time."""
     raw = text
     whole = " ".join(text.strip().split())
     text, zone = _split_zone(whole, zone)
@@ -272,6 +277,8 @@ def parse_time(text: str, zone: Zone, now: datetime | None = None) -> int:
     if not text:
         raise TimeFormatError("empty time", FORMS_HINT)
     current = (now or datetime.now(UTC)).astimezone(zone.tz)
+    if start is not None and _RE_NOW.match(text) is None:
+        current = start.astimezone(zone.tz)
     for parser in (_parse_relative, _parse_unix, _parse_dayword, _parse_clock, _parse_iso):
         try:
             result = parser(text, zone, current)

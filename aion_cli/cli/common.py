@@ -144,14 +144,14 @@ def resolve_time(
 
     zone = map_zone(tz, loaded)
     try:
-        return parse_time(text, zone, _reference(after_ns, zone)), zone
+        return parse_time(text, zone, start=_reference(after_ns, zone)), zone
     except TimeFormatError as exc:
         raise TimeFormatError(f"{option} {text!r}: {exc.message}", exc.hint) from exc
 
 
 def _reference(start_ns: int | None, zone: Zone) -> Any:
     """The moment an end's clock-only, day-word or relative form counts from: its span's
-    start (None: now)."""
+    start (None: now); ``now`` itself is the current time still (``parse_time``)."""
     from aion_cli.timeparse import from_ns
 
     return None if start_ns is None else from_ns(start_ns, zone)
@@ -248,7 +248,7 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
         )
     try:
         start = parse_time(parts[0], zone)
-        end = parse_time(parts[1], zone, _reference(start, zone))
+        end = parse_time(parts[1], zone, start=_reference(start, zone))
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:

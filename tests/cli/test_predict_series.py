@@ -135,6 +135,28 @@ def test_a_step_longer_than_the_span_is_one_time(rhythm: Path) -> None:
     assert math.isfinite(doc["entries"][0]["flow"][0])
 
 
+def test_a_series_to_now_ends_now(rhythm: Path) -> None:
+    """``--to now`` is the current time, not the series' start: from two days ago, daily,
+    it holds three times (it had been the start alone, without a word), each one day after
+    the one before; ``--to +2d`` from the same start counts from the start, as before."""
+    import time
+
+    before = time.time_ns()
+    doc = run_json(
+        "predict", rhythm, "--from", "-2d", "--to", "now", "--step", "1d", "--top", "1",
+        "--tz", "UTC", "--format", "json",
+    )
+    times = doc["times_ns"]
+    assert len(times) == 3
+    assert [times[1] - times[0], times[2] - times[1]] == [DAY, DAY]
+    assert before - 2 * DAY <= times[0] <= time.time_ns() - 2 * DAY
+    relative = run_json(
+        "predict", rhythm, "--from", _iso(T_DAY), "--to", "+2d", "--step", "1d", "--top", "1",
+        "--format", "json",
+    )
+    assert relative["times_ns"] == [T_DAY, T_DAY + DAY, T_DAY + 2 * DAY]
+
+
 def test_places_without_data_and_every_layer_agree_with_predict(office: Office) -> None:
     """The office graph has places no detection reached (flow 0 in predict's table): the
     series says the same for them, and for cells, rooms and buildings, at each time."""

@@ -296,6 +296,22 @@ def test_a_spans_end_counts_from_its_start_not_from_now() -> None:
         parse_span("2017-06-09 22:00..06:00", resolve_zone("UTC"), "--observed")
 
 
+def test_now_ends_a_span_now_not_at_its_start() -> None:
+    """``now`` (and ``now+2h``) ending a span is the current time: it had been counted from
+    the span's start as ``+2h`` is, so ``--from "2026-11-20 08:00" --to now`` was a series of
+    its start alone and ``--leave "08:00..now"`` an empty span. ``+2h`` still counts from the
+    start, and a bare ``now`` reads the same with or without a start."""
+    start = datetime(2026, 11, 20, 8, 0, tzinfo=UTC)  # two days before NOW
+    assert parse_time("now", UTCZ, NOW, start=start) == to_ns(NOW)
+    assert parse_time("NOW", BERLIN, NOW, start=start) == to_ns(NOW)
+    assert parse_time("now+2h", UTCZ, NOW, start=start) == to_ns(NOW) + 2 * 3600 * S
+    assert parse_time("now -30m", UTCZ, NOW, start=start) == to_ns(NOW) - 1800 * S
+    assert parse_time("+2h", UTCZ, NOW, start=start) == ns(2026, 11, 20, 10, 0)
+    assert parse_time("18:00", UTCZ, NOW, start=start) == ns(2026, 11, 20, 18, 0)
+    assert parse_time("tomorrow 06:00", UTCZ, NOW, start=start) == ns(2026, 11, 21, 6, 0)
+    assert parse_time("now", UTCZ, NOW) == to_ns(NOW)
+
+
 @pytest.mark.parametrize(
     ("span", "zone", "clock_change"),
     [
