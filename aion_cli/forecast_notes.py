@@ -55,10 +55,13 @@ PLAN_COSTS = "; the plan's costs come from these extrapolated flows"
 """The end of that note for a plan departing at such an hour (its costs are those flows')."""
 
 
-def forecast_notes(manifest: Manifest, t_ns: int, noun: str = "times") -> list[str]:
+def forecast_notes(
+    manifest: Manifest, t_ns: int, noun: str = "times", shown: Zone | None = None
+) -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
     when there is nothing to say. ``noun`` "departures": a plan's, whose costs are said to
-    come from the flows of an hour no log observed."""
+    come from the flows of an hour no log observed. ``shown``: the zone the time is printed
+    in (``--tz``; default UTC), which :func:`unseen_day` names its day against."""
     notes = []
     static = all_static(manifest)
     if static is not None:
@@ -68,7 +71,7 @@ def forecast_notes(manifest: Manifest, t_ns: int, noun: str = "times") -> list[s
     )
     if where is not None:
         notes.append(where)
-    unseen = None if static is not None else unseen_day(manifest, int(t_ns))
+    unseen = None if static is not None else unseen_day(manifest, int(t_ns), shown)
     if unseen is not None:
         notes.append(unseen)
     from aion_cli.fixed_sensor import silent_advice
@@ -102,8 +105,8 @@ def query_notes(
     changed = wall_clock_note(time, zone, t_ns)  # a string, a naive datetime (API)
     notes = [] if changed is None else [changed]
     if series:
-        return notes + series_notes(manifest, series, t_ns, noun)
-    return notes + forecast_notes(manifest, t_ns, noun)
+        return notes + series_notes(manifest, series, t_ns, noun, zone)
+    return notes + forecast_notes(manifest, t_ns, noun, zone)
 
 
 def all_static(manifest: Manifest) -> str | None:
@@ -194,13 +197,15 @@ def _outside(
     return text if before else text + " and knows nothing of what changed since"
 
 
-def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
+def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str | None:
     """The note for a time on a kind of day (weekend or weekday; with the weekly profile, a
     day of the week) that no day of the map's data span is, or that the span holds but no
     log observed (``observed_bins``: a fixed sensor whose tracker is silent when nobody is
     there records no window of a weekend nobody came on), in the map's zone; None when the
     map observed that kind of day (or, for a map that does not list its observed bins, its
-    span holds one) or the profile does not tell days apart."""
+    span holds one) or the profile does not tell days apart. The day is named with the
+    map's zone where the time, printed in ``shown`` (default UTC), falls on another day of
+    the week there."""
     import numpy as np
 
     from aion_cli.engine.temporal.calendar import weekday_of
@@ -223,10 +228,11 @@ def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
     observed = {b // calendar.bins_per_day for b in bins} if bins else None
     if in_span and (observed is None or kind in observed):
         return None
-    # a day as the map's clock has it: say which clock where it is not UTC (Friday 20:00 UTC
-    # is a Saturday in Tokyo)
+    # a day as the map's clock has it: say which clock where the time as printed is another
+    # day (Friday 20:00 UTC is a Saturday in Tokyo; Sunday 00:30 in London, with --tz
+    # Europe/London, a Saturday on a UTC map's clock)
     day_name = words.WEEKDAYS[weekday] + (
-        f" ({calendar.timezone} time)" if calendar.timezone != "UTC" else ""
+        f" ({calendar.timezone} time)" if _weekday_in(t_ns, shown) != weekday else ""
     )
     if profile == "week":
         what = f"no {words.WEEKDAYS[weekday]}"
@@ -260,22 +266,29 @@ def unseen_day(manifest: Manifest, t_ns: int) -> str | None:
 
 
 def series_notes(
-    manifest: Manifest, times_ns: list[int], at: int | None = None, noun: str = "times"
+    manifest: Manifest,
+    times_ns: list[int],
+    at: int | None = None,
+    noun: str = "times",
+    shown: Zone | None = None,
 ) -> list[str]:
     """The notes for a series of forecasts: those of the time ``at`` (default: the first),
     with the hours no log observed named for the whole series rather than for one time
     (``noun``: what the times are, e.g. "departures"), and a kind of day the map never saw
     named where the series reaches one after that time (Friday to Monday from a map of
     weekdays: its Saturday's note), and its first or last time where that lies before the
-    map's data or over a week after it and the time ``at`` does not."""
+    map's data or over a week after it and the time ``at`` does not. ``shown``: the zone the
+    times are printed in (:func:`unseen_day`)."""
     when = times_ns[0] if at is None else int(at)
-    notes = [n for n in forecast_notes(manifest, when) if not n.startswith(_NO_LOG)]
+    notes = [
+        n for n in forecast_notes(manifest, when, shown=shown) if not n.startswith(_NO_LOG)
+    ]
     far = _far_end(manifest, times_ns, when, noun)
     if far is not None:
         notes.append(far)
     calendar = _calendar(manifest.config, manifest.timezone)
     if calendar is not None and all_static(manifest) is None and unseen_day(manifest, when) is None:
-        unseen = _first_unseen_day(manifest, calendar, times_ns)
+        unseen = _first_unseen_day(manifest, calendar, times_ns, shown)
         if unseen is not None:
             notes.append(unseen)
     observed = hour_observed(manifest, times_ns)
@@ -323,7 +336,9 @@ def _far_end(manifest: Manifest, times_ns: list[int], when: int, noun: str) -> s
     return None
 
 
-def _first_unseen_day(manifest: Manifest, calendar: Any, times_ns: list[int]) -> str | None:
+def _first_unseen_day(
+    manifest: Manifest, calendar: Any, times_ns: list[int], shown: Zone | None = None
+) -> str | None:
     """:func:`unseen_day`'s note for the first day of the series (in the map's zone) on a kind
     of day the map never saw; None when it saw every kind the series reaches. One look per
     day of the week (the kinds are weekdays and weekends, or the days of the week)."""
@@ -334,10 +349,18 @@ def _first_unseen_day(manifest: Manifest, calendar: Any, times_ns: list[int]) ->
     weekdays = weekday_of(calendar.day(list(times_ns)))
     _, first_of_weekday = np.unique(weekdays, return_index=True)
     for i in sorted(first_of_weekday.tolist()):
-        note = unseen_day(manifest, int(times_ns[i]))
+        note = unseen_day(manifest, int(times_ns[i]), shown)
         if note is not None:
             return note
     return None
+
+
+def _weekday_in(t_ns: int, shown: Zone | None) -> int:
+    """The day of the week (Monday 0) of ``t_ns`` in the zone ``shown`` (None: UTC)."""
+    from datetime import UTC, datetime
+
+    tz = UTC if shown is None else shown.tz
+    return datetime.fromtimestamp(t_ns // 1_000_000_000, tz).weekday()
 
 
 def _hours(manifest: Manifest, per_day: int) -> list[int]:

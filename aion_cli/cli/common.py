@@ -185,9 +185,9 @@ def announce_time(
 
         manifest = Manifest.from_dict(loaded.manifest)
         lines = (
-            series_notes(manifest, series, t_ns, noun)
+            series_notes(manifest, series, t_ns, noun, zone)
             if series
-            else forecast_notes(manifest, t_ns, noun)
+            else forecast_notes(manifest, t_ns, noun, zone)
         )
         for line in lines:
             note(line)
