@@ -166,10 +166,16 @@ def refuse_far_point(
     if distance > max(FAR_POINT_M, span):
         # a number of a typo's size reads as one, not as 300 digits
         far = f"{distance:,.0f}" if distance < 1e9 else f"{distance:.3g}"
+        # the limit said is the one applied: a map of one entry spans 0 m, and a point 5 m
+        # from it is taken, so "farther than ... (0 m)" would misstate why 27 m is not
+        limit = (
+            f"the whole map spans ({span:,.0f} m)"
+            if span >= FAR_POINT_M
+            else f"{FAR_POINT_M:,.0f} m, more than the whole map spans ({span:,.0f} m)"
+        )
         raise InputError(
             f"the point {text} is {far} m from the nearest {what} ({nearest}), "
-            f"farther than the whole map spans ({span:,.0f} m): coordinates in another frame "
-            "or unit?",
+            f"farther than {limit}: coordinates in another frame or unit?",
             hint="give map-frame coordinates in metres",
         )
 

@@ -61,3 +61,28 @@ def test_the_array_form_equals_the_scalar_form(values: list[int]) -> None:
 
     ids = np.asarray(values, dtype=np.uint64)
     assert node_labels(ids).tolist() == [node_label(v) for v in values]
+
+
+def test_a_far_point_is_refused_naming_the_limit_applied() -> None:
+    """A point is taken within 10 m of an entry, or within the map's span where that is more.
+    A map of one entry spans 0 m: a point 5 m from it stands for it, one 27 m away is refused,
+    and the error says 10 m was the limit (it had said "farther than the whole map spans
+    (0 m)", which the 5 m point is too). A map 45 m across names its span."""
+    from aion_cli.engine.node_ids import refuse_far_point
+
+    one = [[0.0, 0.0, 0.0]]
+    refuse_far_point("3,4", 5.0, "c1", one, "entry")  # within 10 m: no error
+    with pytest.raises(InputError) as caught:
+        refuse_far_point("20,20", math.hypot(20, 20), "c1", one, "entry")
+    assert caught.value.message == (
+        "the point 20,20 is 28 m from the nearest entry (c1), farther than 10 m, more than "
+        "the whole map spans (0 m): coordinates in another frame or unit?"
+    )
+    wide = [[0.0, 0.0, 0.0], [27.0, 36.0, 0.0]]  # 45 m across
+    refuse_far_point("60,0", 33.0, "p1", wide)  # within the span: no error
+    with pytest.raises(InputError) as caught:
+        refuse_far_point("1000,1000", 1375.0, "p1", wide)
+    assert caught.value.message == (
+        "the point 1000,1000 is 1,375 m from the nearest place (p1), farther than the whole "
+        "map spans (45 m): coordinates in another frame or unit?"
+    )
