@@ -224,6 +224,8 @@ def command(
         announce_time(times[0], zone, label, loaded, series=span, text=t_from or time_text)
     for snap in snapped:
         note(snapped_text(snap))
+    if historical and ends is not None:
+        note(HISTORICAL_PATH)
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
     if written.stale is not None and (written.stale.removed or written.stale.kept):
         note(_stale_note(written.stale, out_dir))
@@ -231,6 +233,13 @@ def command(
         left_out = cells_left_out(loaded)
         if left_out is not None:
             (warn if left_out[1] else note)(left_out[0])
+
+
+HISTORICAL_PATH = (
+    "--historical has no time to forecast a path's costs at: the path drawn is the shortest "
+    "by distance (give --time for one that avoids busy, opposing flows)"
+)
+"""The note of a path drawn with ``--historical`` (:func:`aion_cli.exports.planned_path`)."""
 
 
 def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:

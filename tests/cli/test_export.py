@@ -91,6 +91,35 @@ def test_a_path_s_ends_given_as_a_point_or_room_say_which_place_they_stand_for(
     assert "--path-" not in ids.stderr
 
 
+def test_a_path_drawn_with_historical_is_said_to_be_the_shortest_by_distance(
+    office: Office, tmp_path: Path
+) -> None:
+    """--historical has no time to forecast costs at, so the path drawn is plan's distance-only
+    path (the rows planned are those of the distance-only route between the same places);
+    the export had drawn it without a word, beside flows that a temporal plan avoids. A path
+    at --time gets no such note, and neither does --historical without a path."""
+    from aion_cli.cli.common import load
+    from aion_cli.exports import path_ends, planned_path
+    from aion_cli.routes import plan_routes
+
+    result = run("export", office.map, "--historical", "-o", tmp_path / "h.png",
+                 "--path-from", "p2", "--path-to", "p0")
+    assert result.exit_code == 0, result.stderr
+    said = " ".join(result.stderr.split())
+    assert "the path drawn is the shortest by distance (give --time for one" in said, said
+    loaded = load(office.map)
+    ends = path_ends(loaded, "p2", "p0")
+    nav = ends[0]
+    shortest = plan_routes(loaded, ends[1], ends[2], None, nav=nav).distance_only.rows
+    assert np.array_equal(planned_path(loaded, None, ends), nav.xyz[shortest])
+    timed = run("export", office.map, "--time", AT, "-o", tmp_path / "t.png",
+                "--path-from", "p2", "--path-to", "p0")
+    assert timed.exit_code == 0, timed.stderr
+    assert "shortest by distance" not in timed.stderr
+    bare = run("export", office.map, "--historical", "-o", tmp_path / "b.png")
+    assert "shortest by distance" not in bare.stderr
+
+
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
