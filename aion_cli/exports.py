@@ -223,6 +223,14 @@ def export_plan_scene(
 ) -> None:
     """The whole scene at ``t_ns`` (said in ``zone`` in its header) with a planned path, as
     the one PLY file ``out`` (``aion plan --export``; see :func:`export_scene_file`)."""
+    check_plan_export(out)
+    export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path], zone)
+
+
+def check_plan_export(out: Path) -> None:
+    """Refuse ``aion plan --export`` 's ``out`` before any planning, as ``--png`` is: a name
+    that is no ``.ply`` file, a missing folder, a device, a file aion's export did not write
+    (a ``--leave`` of many departures had been planned first, then refused)."""
     from aion_cli.errors import InputError
 
     if out.suffix.lower() != ".ply":
@@ -230,7 +238,7 @@ def export_plan_scene(
             f"--export writes a .ply file, got {out.name!r}",
             hint=f"name it {out.with_suffix('.ply').name}",
         )
-    export_scene_file(loaded, t_ns, out, "ply", nav.xyz[path], zone)
+    check_scene_file(out, "ply")
 
 
 SCENE_FORMATS = ("ply", "pcd")

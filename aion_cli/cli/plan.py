@@ -166,6 +166,10 @@ def command(
         from aion_cli.pictures.render import check_png_target
 
         check_png_target(png_path, "--png")  # before any planning
+    if export_path is not None:
+        from aion_cli.exports import check_plan_export
+
+        check_plan_export(export_path)  # so is the scene's
     loaded = load(map_path)
     zone = map_zone(tz, loaded)
     every = "10m" if step is None else step
