@@ -42,12 +42,17 @@ def export_mcap(
     step. ``out`` is checked before anything is computed and appears complete or not at all."""
     from aion_cli.formats.outputs import safe_text
     from aion_cli.formats.scene_markers import FRAME
-    from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
+    from aion_cli.formats.scene_mcap import (
+        SceneMcapWriter,
+        check_scene_target,
+        check_step_times,
+    )
     from aion_cli.manifest import Manifest
     from aion_cli.predictions import hour_flags, observed_text
     from aion_cli.timeparse import format_ns
 
     check_scene_target(out)
+    check_step_times([_log_time(loaded, t) for t in times])  # before any scene is computed
     # the frame the map's positions are in (aion build --map-frame; map by default)
     frame = Manifest.from_dict(loaded.manifest).map_frame or FRAME
     scale = series_flow_scale(loaded, times)

@@ -41,6 +41,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from aion_cli.errors import InputError
 from aion_cli.formats.export import ExportError, ExportWriteError
 from aion_cli.formats.outputs import OutputPathError, Staged, check_output
 from aion_cli.formats.scene_colours import EDGE_GREY, PATH_GREEN
@@ -53,6 +54,7 @@ from aion_cli.formats.scene_markers import (
     tf_static,
 )
 from aion_cli.formats.scene_style import SceneStyle
+from aion_cli.formats.writers import max_stamp_ns
 
 SCENE_TOPIC = "/aion/scene"
 MARKER_TOPIC = "/aion/markers"
@@ -68,6 +70,33 @@ LATCHED_QOS = (
 )
 """rosbag2's QoS of ``/tf_static`` (keep last 1, reliable, transient local: latched), so a
 ``ros2 bag play`` of the file offers it as a static transform publisher does."""
+
+
+LAST_STEP_NS = max_stamp_ns("mcap")
+"""The last time a step can be logged at: ``/aion/markers`` and ``/tf_static`` are ROS 2
+messages, whose ``builtin_interfaces/Time`` holds signed 32-bit seconds (2038-01-19 03:14:07
+UTC); an MCAP log time cannot be before 1970."""
+
+
+class SceneTimeError(InputError):
+    """A time an MCAP scene cannot log a step at (before 1970, after :data:`LAST_STEP_NS`)."""
+
+
+def check_step_times(times_ns: Sequence[int]) -> None:
+    """:class:`SceneTimeError` naming the first of ``times_ns`` (ns since 1970) a step cannot
+    be logged at; checked for a whole series before any scene is computed."""
+    from datetime import UTC, datetime
+
+    for t_ns in times_ns:
+        if 0 <= t_ns <= LAST_STEP_NS:
+            continue
+        moment = datetime.fromtimestamp(t_ns // 1_000_000_000, UTC).strftime("%Y-%m-%d %H:%M:%S")
+        raise SceneTimeError(
+            f"cannot log a scene at {moment} UTC: an MCAP scene's steps lie in 1970-01-01 .. "
+            "2038-01-19 03:14:07 UTC (MCAP log times start in 1970, and its ROS 2 messages "
+            "hold their time in 32-bit seconds)",
+            hint="choose times in that span; png, ply, pcd and dsg exports take any time",
+        )
 
 
 def library_of(path: Path) -> tuple[str, str] | None:
@@ -185,11 +214,7 @@ class SceneMcapWriter:
         """The scene of one time step (``t_ns``: its log time, ns since 1970, increasing)."""
         if self._file is None:
             raise ExportWriteError(f"{self.path} is closed")
-        if not 0 <= t_ns < 2**63:
-            raise ExportWriteError(
-                f"cannot log a scene at {t_ns} ns: MCAP times are 1970..2262",
-                hint="choose times after 1970",
-            )
+        check_step_times([t_ns])
         if len(node_ids) != len(style.nodes_xyz) or len(cell_ids) != len(style.cells_xyz):
             raise ExportError("write_step needs one id per node and per cell")  # a caller bug
         try:

@@ -386,3 +386,36 @@ def test_the_metadata_holds_predicts_values_in_full(
                 )  # fmt: skip
                 checked += 1
     assert checked > 100
+
+
+def test_times_a_ros_2_stamp_cannot_hold_are_refused_before_any_scene(
+    office: Office, tmp_path: Path
+) -> None:
+    """/aion/markers and /tf_static stamp their time in ROS 2's signed 32-bit seconds, which
+    end at 2038-01-19 03:14:07 UTC: a step there is logged, its stamps that second; one a
+    second later (or a series that reaches it, or a time before 1970) is one line, exit 2,
+    naming the time, and no file. It had been an internal error (exit 1) from struct.pack,
+    after every step before it was computed."""
+    last = tmp_path / "last.mcap"
+    ok = run("export", office.map, "--time", "2038-01-19 03:14:07", "--tz", "UTC", "-o", last)
+    assert ok.exit_code == 0, ok.stderr
+    (tf,) = ros_messages(last, "/tf_static")
+    assert (tf.transforms[0].header.stamp.sec, tf.transforms[0].header.stamp.nanosec) == (
+        2**31 - 1, 0
+    )
+    assert [t for t, _ in scene_updates(last)] == [(2**31 - 1) * 10**9]
+    cases = [
+        (["--time", "2038-01-19 03:14:08"], "2038-01-19 03:14:08 UTC"),
+        (["--from", "2038-01-18 00:00", "--to", "2038-01-20 00:00", "--step", "12h"],
+         "2038-01-19 12:00:00 UTC"),
+        (["--time", "1969-12-31 23:59"], "1969-12-31 23:59:00 UTC"),
+        (["--time", "2260-06-01 00:00"], "2260-06-01 00:00:00 UTC"),
+    ]
+    for args, named in cases:
+        out = tmp_path / "late.mcap"
+        result = run("export", office.map, *args, "--tz", "UTC", "-o", out)
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(result.stderr, f"cannot log a scene at {named}")
+        assert "1970-01-01 .. 2038-01-19 03:14:07 UTC" in result.stderr
+        assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["last.mcap"]

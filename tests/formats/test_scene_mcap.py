@@ -19,10 +19,15 @@ from ruamel.yaml import YAML
 
 from aion_cli.engine.types import Mesh
 from aion_cli.formats import msgdefs
-from aion_cli.formats.export import ExportError, ExportWriteError
+from aion_cli.formats.export import ExportError
 from aion_cli.formats.outputs import OutputPathError
 from aion_cli.formats.scene_markers import marker_array, tf_static
-from aion_cli.formats.scene_mcap import SceneMcapWriter, check_scene_target
+from aion_cli.formats.scene_mcap import (
+    LAST_STEP_NS,
+    SceneMcapWriter,
+    SceneTimeError,
+    check_scene_target,
+)
 from aion_cli.formats.scene_style import SceneStyle, style_scene
 
 DELTA = 0.5
@@ -308,8 +313,10 @@ def test_failure_leaves_the_previous_file_and_no_staging(tmp_path: Path) -> None
 
 def test_bad_steps_are_typed_errors(tmp_path: Path) -> None:
     with SceneMcapWriter(tmp_path / "s.mcap", {}) as writer:
-        with pytest.raises(ExportWriteError, match="1970"):
+        with pytest.raises(SceneTimeError, match="1970"):
             writer.write_step(-1, scene(), NODE_IDS, CELL_IDS)
+        with pytest.raises(SceneTimeError, match="2038-01-19 03:14:08 UTC"):
+            writer.write_step(LAST_STEP_NS + 1, scene(), NODE_IDS, CELL_IDS)
         with pytest.raises(ExportError, match="one id"):
             writer.write_step(T0, scene(), NODE_IDS[:2], CELL_IDS)
         writer.write_step(T0, scene(), NODE_IDS, CELL_IDS)
