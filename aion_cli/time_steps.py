@@ -56,6 +56,13 @@ def parse_step(step: str | float, option: str = "--step") -> Step:
     hint = "e.g. step='1h', '30m', '600s', '1d' or 600 (seconds)" if api else _STEP_HINT
     if isinstance(step, str):
         token = step.strip().lower()
+        if token.startswith("-"):  # a length has no sign; "-1h" read as unreadable text
+            raise TimeFormatError(
+                f"{name} {step!r} has a minus sign: a step is a length, and a series runs "
+                "forward from its start",
+                hint,
+            )
+        token = token.removeprefix("+").lstrip()
         if token.replace(".", "", 1).isdigit():
             seconds = Decimal(token)
         else:

@@ -20,6 +20,7 @@ import pytest
 import aion_cli as aion
 from aion_cli.api import Map
 from aion_cli.time_steps import Step, parse_step
+from aion_cli.timeparse import TimeFormatError
 from tests.cli.conftest import Office, run, run_json
 from tests.engine.temporal_data import DAY, HOUR, corridor
 
@@ -207,6 +208,23 @@ def test_an_export_series_every_day_names_its_folders_by_the_same_local_noon(
 )
 def test_which_steps_are_calendar_days(text: str | float, step: Step) -> None:
     assert parse_step(text) == step
+
+
+def test_a_signed_step_is_read_or_refused_as_a_length() -> None:
+    """A step is a length: "+1h" is 1h (it had been "cannot read the step"), and "-1h" is
+    refused naming its sign (it had been "cannot read the step '-1h'", as for a typo), on
+    the command line and in the API alike; a number of seconds below 1 still says so."""
+    assert parse_step("+1h") == parse_step("1h") == Step(0, HOUR)
+    assert parse_step(" + 1d") == Step(1, 0)
+    for text, option in (("-1h", "--step"), (" -30m", "--step"), ("-1d", "step")):
+        with pytest.raises(TimeFormatError) as caught:
+            parse_step(text, option)
+        assert caught.value.message == (
+            f"{option} {text!r} has a minus sign: a step is a length, and a series runs "
+            "forward from its start"
+        )
+    with pytest.raises(TimeFormatError, match="at least 1 s"):
+        parse_step(-3600.0, "step")
 
 
 def test_a_repeated_hour_is_labelled_by_its_offset() -> None:
