@@ -223,6 +223,8 @@ def _open_zip(path: Path, max_members: int = DEFAULT_MAX_MEMBERS) -> zipfile.Zip
     kind = special_kind(path)
     if kind is not None:  # reading /dev/zero or a FIFO would never end
         raise MapFileError(f"{path} is {kind}, not a map file", hint="pass the .aion file")
+    if path.stat().st_size == 0:  # "not a zip container (File is not a zip file)" hid why
+        raise _not_a_map(path, "the file is empty (0 bytes)")
     count = _declared_entries(path)
     if count is not None and count > max_members:
         raise _too_many_members(path, count, max_members)

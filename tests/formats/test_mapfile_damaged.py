@@ -83,6 +83,20 @@ def test_truncated_file_is_a_map_file_error_with_hint(written: Path) -> None:
     assert err.value.hint
 
 
+def test_an_empty_file_is_said_to_be_empty(tmp_path: Path) -> None:
+    """A map file of 0 bytes (an interrupted copy, a `touch`) is named empty, with the hint
+    of a damaged map; it had been 'not a zip container (File is not a zip file)'."""
+    empty = tmp_path / "empty.aion"
+    empty.write_bytes(b"")
+    for read in (read_map, read_manifest):
+        with pytest.raises(MapFileError) as err:
+            read(empty)
+        assert err.value.message == (
+            f"{empty} is not a readable aion map: the file is empty (0 bytes)"
+        )
+        assert "aion build" in (err.value.hint or "")
+
+
 def test_not_a_zip_missing_file_and_missing_manifest(tmp_path: Path, written: Path) -> None:
     junk = tmp_path / "junk.aion"
     junk.write_text("hello, not a zip")
