@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from aion_cli.errors import path_word
 from tests.cli.conftest import assert_one_line_error, run
 
 
@@ -45,4 +46,5 @@ def test_a_scene_graph_is_named_a_scene_graph(tmp_path: Path, layout: str) -> No
     graph.write_text(json.dumps({"directed": False, "edges": [], "nodes": nodes}))
     out = tmp_path / "g.mcap"
     _refused(graph, out, "dsg.json is a scene graph, not a tracks file", layout=layout)
-    assert "--graph dsg.json" in run("convert", graph, "--layout", layout, "-o", out).stderr
+    stderr = run("convert", graph, "--layout", layout, "-o", out).stderr
+    assert f"--graph {path_word(graph)}" in stderr
