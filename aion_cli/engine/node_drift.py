@@ -193,6 +193,7 @@ def join_timers(
     keep, at = verdicts.keep_earlier, verdicts.earlier_at
     later.stable_since_ns[keep] = earlier.stable_since_ns[at[keep]]
     later.ref_xyz[keep] = earlier.ref_xyz[at[keep]]
+    later.quiet = None  # its timers changed in place (NodeTable.quiet)
     return keep
 
 
@@ -220,6 +221,7 @@ def approximate_timers(later: NodeTable, earlier: NodeTable, tolerance: float) -
     keep: BoolA = both & near & unbroken
     later.stable_since_ns[keep] = np.minimum(since[keep], earlier.stable_since_ns[at[keep]])
     later.ref_xyz[keep] = earlier.ref_xyz[at[keep]]
+    later.quiet = None  # its timers changed in place (NodeTable.quiet)
     return keep
 
 

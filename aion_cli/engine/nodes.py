@@ -8,6 +8,7 @@ Which node a cell binds to is :mod:`aion_cli.engine.nearest`'s.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -18,6 +19,49 @@ from aion_cli.engine.types import F64, I64, U64, BoolA
 
 if TYPE_CHECKING:
     from aion_cli.engine.nearest import BindIndex
+
+
+_TIME_MIN = int(np.iinfo(np.int64).min)
+_TIME_MAX = int(np.iinfo(np.int64).max)
+
+
+@dataclass(frozen=True)
+class QuietCheck:
+    """A bind check that planned no bind (``ownership.plan_binds``), as much of it as
+    decides that answer: the node table's stable set is the same at every log time in
+    ``[start_ns, end_ns)`` (:meth:`NodeTable.stable_span`, with ``stability_ns``), and with
+    that set and the bind parameters ``params`` (radius, vertical tolerance) no cell of
+    the entry store's ``cells_version`` binds (``cells_version`` None: no node was stable,
+    so no cell of any version binds). A later check on the same table that
+    :meth:`covers` has the same answer, found without looking at a node or a cell
+    (issue 15: a build checks twice per window, at the window's end and at its graph, and
+    most checks see the stable nodes and the cells of the check before)."""
+
+    since: I64
+    """The table's ``stable_since_ns`` array the check saw (compared by identity)."""
+    stability_ns: int
+    params: tuple[float, float]
+    start_ns: int
+    end_ns: int
+    cells_version: int | None
+
+    def covers(
+        self,
+        since: I64,
+        stability_ns: int,
+        params: tuple[float, float],
+        t_ns: int,
+        cells_version: int,
+    ) -> bool:
+        """Whether a check at ``t_ns`` of the cells of ``cells_version`` (timers ``since``)
+        would find what this one found: nothing to bind."""
+        return (
+            since is self.since
+            and self.start_ns <= t_ns < self.end_ns
+            and stability_ns == self.stability_ns
+            and params == self.params
+            and (self.cells_version is None or cells_version == self.cells_version)
+        )
 
 
 @dataclass
@@ -37,6 +81,10 @@ class NodeTable:
     moved or only repeated the same nodes), and used only for the same rows and ids
     (``ownership.apply_graph`` compares them: a live graph's node entries rarely change
     between two of its updates, and comparing costs less than searching)."""
+    quiet: QuietCheck | None = field(default=None, compare=False, repr=False)
+    """Memo of the last bind check on this table that planned no bind
+    (``ownership.plan_binds``). Whoever changes the table's arrays in place must set it to
+    None (``node_drift`` does; a table's other changes make a new table)."""
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -99,19 +147,34 @@ class NodeTable:
 
     def _same(self, xyz: F64) -> NodeTable:
         """A copy of this table (positions ``xyz``, equal to its own), memo kept."""
+        since = self.stable_since_ns.copy()
+        quiet = self.quiet
+        if quiet is not None and quiet.since is self.stable_since_ns:  # the same timers
+            quiet = dataclasses.replace(quiet, since=since)
         return NodeTable(
             self.ids.copy(),
             xyz.copy(),
             self.ref_xyz.copy(),
-            self.stable_since_ns.copy(),
+            since,
             self.bind_index,
             self.entry_at,
+            quiet,
         )
 
     def stable_mask(self, t_ns: int, stability_ns: int) -> BoolA:
         """Nodes stable for at least ``stability_ns`` at log time ``t_ns``."""
         out: BoolA = (np.int64(t_ns) - self.stable_since_ns) >= stability_ns
         return out
+
+    def stable_span(self, stable: BoolA, stability_ns: int) -> tuple[int, int]:
+        """The log times ``[start, end)`` around a time whose :meth:`stable_mask` is
+        ``stable`` at which the mask is that same one: from the time the last of those nodes
+        became stable to the time the next other node becomes stable (a node is stable from
+        its ``stable_since_ns + stability_ns`` on)."""
+        ready = self.stable_since_ns + np.int64(stability_ns)
+        start = int(ready[stable].max()) if stable.any() else _TIME_MIN
+        end = _TIME_MAX if stable.all() else int(ready[~stable].min())
+        return start, end
 
     def to_arrays(self, prefix: str = "node_") -> dict[str, np.ndarray]:
         return {

@@ -30,6 +30,7 @@ from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.nearest import BindIndex, nearest_nodes
 from aion_cli.engine.node_drift import NodeDrift
 from aion_cli.engine.node_ids import node_label
+from aion_cli.engine.nodes import QuietCheck
 from aion_cli.engine.spatial_hash import (
     cell_centres,
     cell_indices,
@@ -139,11 +140,31 @@ class BindPlan:
 
 def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     """The binds a check at log time ``t_ns`` would make (None if none); no state changes
-    (beyond the node table's memo of earlier checks, :class:`~aion_cli.engine.nearest.BindIndex`,
-    which makes the answer cost the cells that are new since the last check, not every cell)."""
+    (beyond the node table's memos of earlier checks: :class:`~aion_cli.engine.nodes.
+    QuietCheck`, which answers a check that sees the stable nodes and the cells of one that
+    planned nothing, and :class:`~aion_cli.engine.nearest.BindIndex`, which makes the answer
+    cost the cells that are new since the last check, not every cell)."""
     cfg = state.config
-    stable = stable_nodes(state, t_ns)
+    nodes = state.nodes
+    stability_ns = round(cfg.stability_s * 1e9)
+    params = (float(cfg.bind_radius), float(cfg.bind_vertical_tolerance))
+    version = state.entries.cells_version
     held = state.deferred
+    quiet = nodes.quiet
+    if (
+        quiet is not None
+        and held is None  # a shard's check also records what it saw
+        and quiet.covers(nodes.stable_since_ns, stability_ns, params, int(t_ns), version)
+    ):
+        return None
+    stable = nodes.stable_mask(t_ns, stability_ns)
+
+    def planned_none(cells_version: int | None) -> None:
+        """Remember this check's answer, nothing to bind (:class:`QuietCheck`)."""
+        start, end = nodes.stable_span(stable, stability_ns)
+        since = nodes.stable_since_ns
+        nodes.quiet = QuietCheck(since, stability_ns, params, start, end, cells_version)
+
     if held is not None and stable.any():  # a shard: where its stable places reached
         held.checked_stable(state.nodes.ids[stable], state.nodes.xyz[stable])
     if held is not None and held.first_stable is None:  # a shard, for the join (engine.shards)
@@ -159,10 +180,10 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
             )
             held.reached_unstable(state.entries.key[rows[near >= 0]])
     if not stable.any():
+        planned_none(None)
         return None
-    xyz = state.nodes.xyz[stable]
-    index = state.nodes.bind_index
-    version = state.entries.cells_version
+    xyz = nodes.xyz[stable]
+    index = nodes.bind_index
     cells: I64 | None = None
     if index is not None:
         unbound = index.unbound_at(xyz, cfg.bind_radius, cfg.bind_vertical_tolerance)
@@ -171,18 +192,21 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
         # same); or only cells were added since (a window's new detections): only they can
         # bind, the others were seen unbound with the same nodes (issue 15: not every cell)
         if unbound == version:
+            planned_none(version)
             return None
         if unbound is not None:
             cells = state.entries.cells_added_since(unbound)
             if cells is not None and cells.size == 0:
                 index.bound_none(version)
+                planned_none(version)
                 return None
     if cells is None:
         cells = state.entries.cell_rows()
     if len(cells) == 0:
+        planned_none(version)
         return None
     if index is None:
-        index = state.nodes.bind_index = BindIndex()
+        index = nodes.bind_index = BindIndex()
     hit = index.nearest(
         cells,
         state.entries.key,
@@ -194,11 +218,12 @@ def plan_binds(state: MapState, t_ns: int) -> BindPlan | None:
     bound = hit >= 0
     if not bound.any():
         index.bound_none(version)
+        planned_none(version)
         return None
     cells, hit = cells[bound], hit[bound]
     order = np.argsort(state.entries.key[cells], kind="stable")  # canonical: by cell key
     cells, hit = cells[order], hit[order]
-    return BindPlan(cells, state.nodes.ids[stable][hit], xyz[hit], index)
+    return BindPlan(cells, nodes.ids[stable][hit], xyz[hit], index)
 
 
 def plan_binds_plain(state: MapState, t_ns: int) -> BindPlan | None:
