@@ -15,7 +15,6 @@ the next snapshot.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -335,7 +334,7 @@ class GraphFeed:
         sensor's static map, Hydra repeating an unchanged graph): its snapshot is reused with
         the message's own time (counted as ``skipped_identical``). The payload is compared
         byte for byte with the last one (:func:`_same_bytes`, a view of that message kept):
-        exact, where a digest could collide, and cheaper (0.4 ms at most for a 1.9 MB,
+        exact, where a digest could collide, and cheaper (0.4-0.6 ms at most for a 1.9 MB,
         5,000-place payload, usually less: it stops at the first differing block; blake2b
         takes 3.4 ms).
         """
@@ -353,7 +352,7 @@ class GraphFeed:
                 # layer: only its time differs. It is still applied (add_graph closes windows
                 # and checks binds at its time), so the map equals decoding it again.
                 self.report.graphs_skipped_identical += 1
-                return dataclasses.replace(last[1], t_ns=t_ns)
+                return last[1].restamped(t_ns)
         layer = self.nav_layer or self._nav_pin
         try:
             result = decode_dsg(payload, t_ns, self.dsg_version, layer, reader=self._reader)
@@ -415,13 +414,19 @@ def _posed(snapshot: GraphSnapshot) -> bool:
     return agents is not None and len(agents) > 0
 
 
-def _same_bytes(a: memoryview, b: memoryview, block: int = 1 << 18) -> bool:
+def _same_bytes(a: memoryview, b: memoryview, block: int = 1 << 16) -> bool:
     """Whether two payloads are byte-identical, compared block by block (a payload that
-    differs is usually told apart in its first block)."""
-    if a.nbytes != b.nbytes:
+    differs is usually told apart in its first block). Each block is copied out of both
+    views and compared as ``bytes`` (one ``memcmp``): half the time of numpy's elementwise
+    comparison for a 63 KB payload, which a build compares at every scene graph (issue 15:
+    14 against 28 µs), and about as fast for a 1.9 MB one (0.4-0.6 ms)."""
+    x, y = a.cast("B"), b.cast("B")
+    if x.nbytes != y.nbytes:
         return False
-    x, y = np.frombuffer(a, dtype=np.uint8), np.frombuffer(b, dtype=np.uint8)
-    return all(np.array_equal(x[i : i + block], y[i : i + block]) for i in range(0, len(x), block))
+    return all(
+        x[i : i + block].tobytes() == y[i : i + block].tobytes()
+        for i in range(0, x.nbytes, block)
+    )
 
 
 def graph_source(

@@ -170,6 +170,16 @@ class GraphSnapshot:
     layer_name: str = "places"
     frame_id: str = "map"
 
+    def restamped(self, t_ns: int) -> GraphSnapshot:
+        """This snapshot at time ``t_ns``, every other field the same objects:
+        ``dataclasses.replace(self, t_ns=t_ns)`` without its per-field work (a build
+        restamps the reused snapshot of every repeated scene graph, issue 15: 1 against
+        8 µs)."""
+        out = object.__new__(GraphSnapshot)
+        out.__dict__.update(self.__dict__)
+        object.__setattr__(out, "t_ns", t_ns)
+        return out
+
 
 @dataclass(frozen=True)
 class RowTake:

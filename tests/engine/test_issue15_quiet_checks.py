@@ -6,6 +6,9 @@
   graphs that repeat, move, add and drop places, detections near and far, times that make
   nodes stable between checks); the memo is used, forgotten when the stable set, the cells,
   the timers or the table change, and a check it does not cover answers as the plain check.
+* A repeated scene graph's payload is compared as bytes block by block
+  (``graph_feed._same_bytes``) and its snapshot restamped (``GraphSnapshot.restamped``):
+  the same answers as the numpy comparison and ``dataclasses.replace``.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.node_drift import approximate_timers
 from aion_cli.engine.rebind import bind_to_graph
 from aion_cli.engine.state import MapState
+from aion_cli.graph_feed import _same_bytes
 from tests.engine.engine_builders import T0, S, detections, graph
 
 CFG = ModelConfig(window_s=600.0, cell_size=0.5, stability_s=300.0, bind_radius=1.0)
@@ -80,7 +84,7 @@ def _feed(steps: list[tuple[str, int]]) -> MapState:
             m.add_detections(detections(t + np.arange(n) * S, pts, rng.uniform(-3, 3, n),
                                         rng.uniform(0.5, 1.5, n)))
         elif kind == "same":  # the same place layer again (a static map's repeated graph)
-            snap = dataclasses.replace(snap, t_ns=t)
+            snap = snap.restamped(t)
             m.add_graph(snap)
         elif kind in ("move", "add", "drop"):
             if kind == "move":
@@ -190,3 +194,32 @@ def test_a_repeated_graph_keeps_the_memo_on_its_copied_table() -> None:
     assert again.quiet.since is again.stable_since_ns  # the copy's own timers
     moved, _ = table.updated(table.ids, table.xyz + 0.01, T0 + 500 * S, 0.05)
     assert moved.quiet is None  # moved places: a new table, nothing remembered
+
+
+@given(st.binary(min_size=0, max_size=300), st.integers(0, 299), st.integers(1, 64))
+def test_same_bytes_answers_as_comparing_the_whole_payloads(
+    data: bytes, where: int, block: int
+) -> None:
+    pad = b"xyz"
+    a = memoryview(pad + data)[len(pad):]  # a view into a larger message, as payloads are
+    assert _same_bytes(a, memoryview(bytes(data)), block)
+    if data:
+        changed = bytearray(data)
+        changed[where % len(data)] ^= 0x41
+        assert not _same_bytes(a, memoryview(bytes(changed)), block)
+    assert not _same_bytes(a, memoryview(data + b"\x00"), block)
+    as_words = np.frombuffer(bytes(data[: len(data) // 4 * 4]), np.uint32)
+    assert _same_bytes(memoryview(as_words), memoryview(as_words.tobytes()), block)
+
+
+def test_restamped_equals_replace() -> None:
+    snap = graph(T0, [0, 1], PLACES[:2])
+    again = snap.restamped(T0 + 5 * S)
+    assert again == dataclasses.replace(snap, t_ns=T0 + 5 * S)
+    assert again.t_ns == T0 + 5 * S
+    assert snap.t_ns == T0
+    assert again.places is snap.places
+    assert again.edges is snap.edges
+    assert type(again) is type(snap)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        again.t_ns = 0  # type: ignore[misc]
