@@ -124,7 +124,7 @@ def _close_one(state: MapState, w0: int, delta: int) -> None:
     count_rows = ent.window_rows()
     share = state.observation.fixed_share_of(w0, delta, state.config)
     if count_rows.size or share > 0.0:
-        plan = plan_binds(state, int(window_start_ns(w0 + 1, delta)))
+        plan = plan_binds(state, (w0 + 1) * delta)  # the window's end (window_start_ns)
         if plan is not None:
             apply_binds(state, plan)
             count_rows = ent.window_rows()  # the counts moved with the cells

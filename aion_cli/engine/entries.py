@@ -340,20 +340,22 @@ class EntryStore:
         records counts for. Costs the rows the window touched (``window_mark``), not ``n``.
         Counts are sums of non-negative whole numbers, so a row's total is positive exactly
         where one of its counts is non-zero: tested for that, without the total and its
-        stacked copy (about a third less per call at the 20-day build log's ~60 rows)."""
-        marked = np.flatnonzero(self.window_mark[: self.n]).astype(np.int64)
+        stacked copy (about a third less per call at the 20-day build log's ~60 rows).
+        ``nonzero`` and ``take`` rather than ``flatnonzero`` and fancy indexing: the same
+        rows, in half the time at ~20 marked rows (issue 15: 11 against 23 µs)."""
+        marked = self.window_mark[: self.n].nonzero()[0].astype(np.int64, copy=False)
         if marked.size == 0:
             return marked
-        keep = self.window_counts[marked].any(axis=1)
-        keep |= self.window_nodir[marked] != 0
-        keep &= self.kind[marked] != FREE
+        keep = self.window_counts.take(marked, axis=0).any(axis=1)
+        keep |= self.window_nodir.take(marked) != 0
+        keep &= self.kind.take(marked) != FREE
         out: I64 = marked[keep]
         return out
 
     def clear_window(self) -> None:
         """Forget the open window's counts (the cumulative arrays already hold them); costs
         the rows the window touched."""
-        marked = np.flatnonzero(self.window_mark[: self.n])
+        marked = self.window_mark[: self.n].nonzero()[0]
         self.window_counts[marked] = 0.0
         self.window_nodir[marked] = 0.0
         self.window_mark[marked] = False

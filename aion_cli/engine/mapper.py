@@ -154,7 +154,7 @@ class Mapper:
         st = self._state
         check_time(int(snapshot.t_ns), "a scene graph")
         if st.open_window is not None:
-            close_windows(st, int(window_index(np.int64(snapshot.t_ns), self._delta)))
+            close_windows(st, int(snapshot.t_ns) // self._delta)  # window_index, in int
         apply_graph(st, snapshot)
         st.log_time_ns = _later(st.log_time_ns, int(snapshot.t_ns))
         bind_cells(st, st.log_time_ns)
