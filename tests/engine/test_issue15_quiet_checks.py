@@ -223,3 +223,27 @@ def test_restamped_equals_replace() -> None:
     assert type(again) is type(snap)
     with pytest.raises(dataclasses.FrozenInstanceError):
         again.t_ns = 0  # type: ignore[misc]
+
+
+@given(
+    st.integers(1, 6),
+    st.integers(1, 12),
+    st.integers(0, 2**31 - 1),
+    st.sampled_from([0.5, 1.0, 1.5]),
+)
+def test_every_pair_answers_as_the_gathered_pairs(n: int, m: int, seed: int, radius: float
+                                                  ) -> None:
+    """On a half-metre grid (exact ties in distance, pairs exactly at the radius and the
+    vertical tolerance), the broadcast comparison finds the nodes and least distances the
+    gathered pairs do."""
+    from aion_cli.engine.nearest import _closest, _closest_every_pair, all_pairs
+
+    rng = np.random.default_rng(seed)
+    points = rng.integers(-4, 5, (n, 3)) * 0.5
+    nodes = rng.integers(-4, 5, (m, 3)) * 0.5
+    hit, least = _closest_every_pair(points, nodes, radius, 0.5)
+    p, j = all_pairs(n, m)
+    want, d = _closest(points, nodes, p, j, radius, 0.5)
+    assert hit.tolist() == want.tolist()
+    assert hit.dtype == want.dtype
+    assert least.tobytes() == d.reshape(n, m).min(axis=1).tobytes()
