@@ -281,10 +281,16 @@ def command(
             f"edinburgh: frame 0 taken as {format_ns(start_ns, zone)}, frames at "
             f"{fps or FRAME_LAYOUTS['edinburgh']:g} fps (the file has no clock time)"
         )
-    elif layout in RELATIVE_LAYOUTS and start_text is None and summary.start_ns < 1e9 * UNIX_S:
+    from_zero = layout in RELATIVE_LAYOUTS and start_text is None \
+        and summary.start_ns < 1e9 * UNIX_S
+    if from_zero:  # no zone gives 1970's hours a meaning: --start (and its zone) does
+        home = HOME_ZONES.get(layout)
         note(
             f"{layout}: the file's times count from 0 and were written from 1970-01-01 00:00 "
             "UTC; give --start for when it was recorded"
+            + (f" (the dataset was recorded in {home[0]}: --start \"YYYY-MM-DD HH:MM\" --tz "
+               f"{home[1]} reads it on {home[0]}'s clock, and the log carries the zone)"
+               if home else "")
         )
     span = (summary.end_ns - summary.start_ns) / 1e9
     console().print(
@@ -347,29 +353,43 @@ def command(
         from aion_cli.timeparse import is_unix_time
 
         on_clock = [t for t in observed_text if not all(map(is_unix_time, t.split("..")))]
-        _note_utc_times(layout, output, start_text is not None, bool(on_clock))
+        if not from_zero:  # the note above says what to give: --start
+            _note_utc_times(layout, output, start_text is not None, bool(on_clock))
 
 
 def _note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> None:
     """Without ``--tz``: a note naming the times read in UTC (``--date``, ``--start``,
     ``--observed`` given as clock times, not UNIX ones) and, for a dataset recorded in a known
-    place, its zone and the build that gives local hours; ETH / UCY (recorded in several
-    places) get the first part alone."""
+    place, its zone and what makes a map of local hours (times typed on the place's clock:
+    converting again with ``--tz``; else ``aion build --tz``); ETH / UCY (recorded in several
+    places) get the first part alone. Not for a file whose times count from 0 without
+    ``--start``: no zone gives 1970's hours a meaning, the note on ``--start`` says so."""
     from aion_cli.cli.console import note
 
     given = [name for name, used in (
         ("--date", layout == "edinburgh"), ("--start", start), ("--observed", observed)) if used]
     read = (f" {' and '.join(given)} {'was' if len(given) == 1 else 'were'} read in UTC "
-            "(give --tz);") if given else ""
-    if layout in HOME_ZONES:
+            "(give --tz)") if given else ""
+    if layout in HOME_ZONES and given:
+        # times typed on the place's clock are an hour or more off: the build's --tz cannot
+        # mend them, converting again with --tz reads them right (and the log carries it)
+        place, home = HOME_ZONES[layout]
+        it = "it is" if len(given) == 1 else "they are"
+        note(
+            f"{layout}: the dataset was recorded in {place} ({home}):{read}: if {it} "
+            f"{place}'s clock, convert again with --tz {home} (the log then carries the zone, "
+            f"which aion build follows); if {it} UTC, aion build {path_word(output)} --tz "
+            f"{home} makes a map of {place}'s days and hours"
+        )
+    elif layout in HOME_ZONES:
         place, home = HOME_ZONES[layout]
         note(
-            f"{layout}: the dataset was recorded in {place} ({home}):{read} aion build takes "
-            f"a map's days and hours in UTC unless told: aion build {path_word(output)} "
+            f"{layout}: the dataset was recorded in {place} ({home}): aion build takes a "
+            f"map's days and hours in UTC unless told: aion build {path_word(output)} "
             f"--tz {home}"
         )
     elif given and layout in RELATIVE_LAYOUTS:
-        note(f"{layout}:{read.rstrip(';')}")
+        note(f"{layout}:{read}")
 
 
 #: where each layout's dataset was recorded, and its zone: the hours of the day a map of it
