@@ -24,7 +24,8 @@ Examples:
   aion convert atc-20121024.csv --layout atc -o atc.mcap \\
       --observed "2012-10-24 09:00..2012-10-24 21:00" --tz Asia/Tokyo
   aion convert thor_run1.csv --layout thor -o thor.mcap --graph dsg.json
-  aion convert 2017-06-09.txt --layout lincoln -o lincoln.mcap
+  tail -n +4 2017-06-09.txt > rows.txt          its rows, not its header's 4 days
+  aion convert rows.txt --layout lincoln --tz Europe/London -o lincoln.mcap
   aion convert tracks.01Jul.txt --layout edinburgh --date 2010-07-01 --tz Europe/London \\
       -o forum.mcap
   aion convert THOR-Magni_120522_SC1A_R1.csv --layout thor-magni \\
