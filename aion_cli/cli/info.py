@@ -61,7 +61,8 @@ time zone aion simulate or convert --tz wrote into a log, which aion build follo
 detection topic: a topic --suggest-mapping writes a mapping for, or null), with --verify
 verified{messages_read} (every message read as a build reads them; chunks that cannot be read
 are warnings naming the messages lost).
-For a map (.aion): map, format, version, creator, created, inputs[{path, name, size, sha256}],
+For a map (.aion): map, format, version, creator, created (UTC; the table shows it, as every
+time, in the map's timezone), inputs[{path, name, size, sha256}],
 time_span, counts (all builds), entries and places_without_data (the graph's places that hold
 no entry: predict lists them too, family none; null when unreadable), last_build,
 graph_source, observation, families (how many entries each temporal model family forecasts,
@@ -120,9 +121,10 @@ def _unused_pointer(report: dict[str, Any]) -> str:
 @click.option(
     "--tz",
     metavar="ZONE",
-    help="Logs: the zone of the hours with messages of a fixed sensor (IANA name, UTC, "
+    help="Logs: the zone the table shows every time in (the first and last message, the "
+    "observed spans, a fixed sensor's hours with messages; named once) (IANA name, UTC, "
     "+01:00, local) [default: the zone the logs declare (aion convert or simulate --tz), "
-    "else UTC, as aion build reads them without --tz].",
+    "else UTC, as aion build reads them without --tz]. JSON times stay UNIX ns and UTC.",
 )
 @nav_layer_option
 @format_option(choices=("table", "json"))
@@ -202,7 +204,7 @@ def command(
     if fmt == "json":
         click.echo(to_json(report))
     else:
-        _print(report)
+        _print(report, zone)
 
 
 def rate_text(hz: float) -> str:
@@ -276,11 +278,14 @@ def _seconds_text(seconds: float) -> str:
     return f"{seconds:,.1f} s{readable}"
 
 
-def _print(report: dict[str, Any]) -> None:
-    """The table of a log report. Every string that comes from the log (topic and type names,
-    reasons naming topics, versions, warnings) or from the command line (file names) goes
-    through :func:`markup_safe`: a topic named ``/x<ESC>[2J`` shows as ``/x\x1b[2J``
-    instead of clearing the screen, and ``[bold]`` in a name is shown, not applied."""
+def _print(report: dict[str, Any], zone: str = "UTC") -> None:
+    """The table of a log report, every time of the logs on the clock of ``zone`` (the one
+    a build follows: :func:`aion_cli.log_zone.build_zone`, or ``--tz``), which the header
+    names once (or, for logs without messages, the first note with a time). Every string
+    that comes from the log (topic and type names, reasons naming topics, versions,
+    warnings) or from the command line (file names) goes through :func:`markup_safe`: a
+    topic named ``/x<ESC>[2J`` shows as ``/x\x1b[2J`` instead of clearing the screen, and
+    ``[bold]`` in a name is shown, not applied."""
     from rich.table import Table
 
     from aion_cli.cli.console import console, data_console, print_table, warn_each
@@ -300,11 +305,16 @@ def _print(report: dict[str, Any]) -> None:
         gone = report["messages"] - read
         lost = f", {gone:,} lost: see the warnings" if gone > 0 else ""
         messages = f"{messages} ({read:,} read{lost})"
-    span = f"{_seconds_text(report['span_s'])} ({report['start']} .. {report['end']})"
-    times = f"duration: {span}"
-    if held == 0:  # an empty recording (info opens it; build refuses it)
+    from aion_cli.cli.info_map import clock_in
+
+    said = held > 0 and report.get("start_ns") is not None  # the header names the zone
+    if said:
+        ends = f"{clock_in(report['start_ns'], zone)} .. {clock_in(report['end_ns'], zone)}"
+        span = f"{_seconds_text(report['span_s'])} ({ends} {safe(zone)})"
+        times = f"duration: {span}"
+    else:  # an empty recording (info opens it; build refuses it)
         times = "duration: none (no messages)"
-    elif report["recordings"] > 1 and report["recorded_s"] < report["span_s"]:
+    if said and report["recordings"] > 1 and report["recorded_s"] < report["span_s"]:
         # several logs with time between them: what they recorded is not their span
         times = (
             f"recorded: {_seconds_text(report['recorded_s'])} in {report['recordings']} logs  "
@@ -417,12 +427,14 @@ def _print(report: dict[str, Any]) -> None:
             )
         console().print(f"[yellow]note:[/yellow] {text}", soft_wrap=True)
         if fixed.get("hours_with_messages"):
-            console().print(
-                f"[yellow]note:[/yellow] hours with messages: {safe(fixed['hours_with_messages'])}",
-                soft_wrap=True,
-            )
+            hours = str(fixed["hours_with_messages"]).removesuffix(f" ({zone})")  # said above
+            console().print(f"[yellow]note:[/yellow] hours with messages: {safe(hours)}",
+                            soft_wrap=True)
     for path, spans in (report.get("observed_spans") or {}).items():
-        listed = ", ".join(f"{s['start']} .. {s['end']}" for s in spans)
+        listed = ", ".join(
+            f"{clock_in(s['start_ns'], zone)} .. {clock_in(s['end_ns'], zone)}" for s in spans
+        ) + ("" if said else f" {zone}")
+        said = True
         console().print(
             f"[yellow]note:[/yellow] {safe(Path(path).name)} records the spans the sensor was "
             f"observing (aion convert --observed): {listed}; `aion build` takes them as "
@@ -430,11 +442,13 @@ def _print(report: dict[str, Any]) -> None:
             "the share they cover) unless --observed is given",
             soft_wrap=True,
         )
-    for path, zone in (report.get("declared_zones") or {}).items():
+    for path, declared in (report.get("declared_zones") or {}).items():
+        which = "its time zone (aion simulate or convert --tz), the one of the times here" \
+            if declared == zone else \
+            f"the time zone {safe(declared)} (aion simulate or convert --tz)"
         console().print(
-            f"[yellow]note:[/yellow] {safe(Path(path).name)} declares the time zone "
-            f"{safe(zone)} (aion simulate or convert --tz): `aion build` follows it unless "
-            "--tz is given",
+            f"[yellow]note:[/yellow] {safe(Path(path).name)} declares {which}: `aion build` "
+            "follows it unless --tz is given",
             soft_wrap=True,
         )
     warn_each(list(report["warnings"]))

@@ -122,6 +122,35 @@ def span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) ->
     return f"{length}: {when(start)} to {when(end)} {zone.name}"
 
 
+def clock_in(t_ns: int, zone: str) -> str:
+    """``2012-10-24 09:00:00``: a UNIX-ns time on the clock of ``zone`` (a zone name info has
+    resolved), cut to the second, without the zone's name: ``aion info`` shows every time of
+    a log or a map in one zone and names it once."""
+    from aion_cli.timeparse import from_ns, resolve_zone
+
+    return from_ns(int(t_ns), resolve_zone(zone)).strftime("%Y-%m-%d %H:%M:%S")
+
+
+def created_text(created: Any, report: dict[str, Any]) -> str:
+    """When the map was written (the manifest's ``created``, UTC ``2026-12-07T04:44:13Z``)
+    on the clock of the map's zone, which the time span row names, as :func:`clock_in`
+    writes it; as the manifest has it when either cannot be read (a zone this machine does
+    not know, a hand-edited manifest)."""
+    from datetime import datetime
+
+    from aion_cli.errors import AionError
+    from aion_cli.timeparse import resolve_zone, to_ns
+
+    try:
+        moment = datetime.fromisoformat(str(created))
+        zone = resolve_zone(str(report.get("timezone") or "UTC")).name
+    except (AionError, ValueError):
+        return str(created)
+    if moment.tzinfo is None:
+        return str(created)
+    return clock_in(to_ns(moment), zone)
+
+
 def print_map(report: dict[str, Any]) -> None:
     """The table of a map's manifest; its strings (input names, creator, sources, config
     values) are escaped like a log's (:func:`_print`): a map file is input too."""
@@ -140,8 +169,11 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value")
     table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
-    table.add_row("created", safe(f"{report.get('created')} by {report.get('creator')}"))
-    table.add_row("time span", span_with_days(span_text(seconds), start, end, report))
+    # the span names the map's zone once; the build's own time is on the same clock
+    span_row = span_with_days(span_text(seconds), start, end, report)
+    table.add_row("time span", span_row)
+    created = created_text(report.get("created"), report)
+    table.add_row("created", safe(f"{created} by {report.get('creator')}"))
     table.add_row("detections used", f"{counts.get('used', 0):,} of {counts.get('read', 0):,}")
     for reason, count in sorted((counts.get("dropped") or {}).items()):
         if count:  # as the build's summary names them
@@ -211,6 +243,9 @@ def print_map(report: dict[str, Any]) -> None:
 
     hours = observed_hours(families, report.get("config") or {}, report.get("timezone"))
     if hours is not None:
+        zone = f" ({report.get('timezone')})"
+        if span_row.endswith(zone[2:-1]):  # the time span row names the zone: once is enough
+            hours = hours.removesuffix(zone)
         table.add_row("hours observed", safe(hours))
     if families:
         table.add_row(

@@ -90,7 +90,8 @@ def test_readmes_lincoln_example_observes_the_evaluated_session(tmp_path: Path) 
     run_json("build", log, "--derive-graph", "-o", tmp_path / "c.aion", "--format", "json", "-q")
     info = run_json("info", tmp_path / "c.aion", "--format", "json")
     day = load_days(LINCOLN.parent)["2017-06-09"]
-    assert len(day.spans) == 1 and SESSION_GAP_NS == 3600 * 10**9
+    assert len(day.spans) == 1
+    assert SESSION_GAP_NS == 3600 * 10**9
     windows = observed_windows(day.spans, 600 * 10**9)
     assert len(windows) == 55 == info["counts"]["recording_windows"]
     first, last = int(np.min(day.batch.t_ns)), int(np.max(day.batch.t_ns))

@@ -65,9 +65,9 @@ def test_a_fixed_sensor_log_says_how_much_of_its_span_holds_messages(tmp_path: P
     table = run("info", log)
     assert "fixed sensor over the 6 windows of 10 min with messages, 2% of its span; the " \
         "others are unknown, not empty" in " ".join(table.stderr.split())
-    assert "note: hours with messages: weekdays 08:00-09:00; weekends none (UTC)" in " ".join(
+    assert "note: hours with messages: weekdays 08:00-09:00; weekends none" in " ".join(
         table.stderr.split()
-    )
+    )  # in UTC, which the header names once
     assert "--observed START..END" in table.stderr
     one = tmp_path / "one.mcap"
     write_office_log(one, graph=False, tf=False)
@@ -219,8 +219,10 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     assert any("flow models" in line and "static 5" in line for line in lines)
     assert any("direction models" in line and "static 5" in line for line in lines)
     assert any("days scored" in line and line.split("│")[2].strip() == "0" for line in lines)
-    hours = "weekdays 08:00-09:00; weekends none (UTC)"
-    assert any("hours observed" in line and hours in line for line in lines)
+    hours = "weekdays 08:00-09:00; weekends none"  # UTC: named once, by the time span row
+    assert any("hours observed" in line and hours in line and "UTC" not in line
+               for line in lines)
+    assert any("time span" in line and line.rstrip(" │").endswith("UTC") for line in lines)
     assert "models note" not in table.stdout
 
 

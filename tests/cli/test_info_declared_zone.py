@@ -21,7 +21,12 @@ def test_info_names_the_zone_simulate_wrote(tmp_path: Path, container: str) -> N
     assert doc["declared_zones"] == {str(log): "Asia/Tokyo"}
     table = run("info", log)
     assert table.exit_code == 0, table.stderr
-    assert f"note: {log.name} declares the time zone Asia/Tokyo" in table.stderr
+    said = " ".join(table.stderr.split())
+    assert (f"note: {log.name} declares its time zone (aion simulate or convert --tz), the one "
+            "of the times here: `aion build` follows it") in said
+    assert " Asia/Tokyo)" in " ".join(table.stdout.split())  # the header's times: said once
+    other = run("info", log, "--tz", "UTC")
+    assert f"note: {log.name} declares the time zone Asia/Tokyo" in other.stderr
 
 
 def test_a_fixed_sensors_hours_are_in_the_zone_the_log_declares(tmp_path: Path) -> None:
@@ -50,4 +55,6 @@ def test_a_fixed_sensors_hours_are_in_the_zone_the_log_declares(tmp_path: Path) 
     built = run("build", log, "-o", tmp_path / "morning.aion", "--derive-graph", "-q")
     assert built.exit_code == 0, built.stderr
     table = run("info", tmp_path / "morning.aion")
-    assert "weekdays 07:00-08:00; weekends none (Europe/Berlin)" in " ".join(table.stdout.split())
+    shown = " ".join(table.stdout.split())
+    assert "weekdays 07:00-08:00; weekends none " in shown  # the zone: named by the time span
+    assert shown.count("Europe/Berlin") == 2  # the time span's and the config row's timezone
