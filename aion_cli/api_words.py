@@ -37,10 +37,11 @@ OPTION_KEYWORDS = {
     "top": "top",
     "historical": "historical",
     "lineage": "lineage",
+    "force": "force",
 }
 """Command-line options and the API keywords that take the same value."""
 
-_FLAGS = frozenset({"derive-graph", "part", "historical"})
+_FLAGS = frozenset({"derive-graph", "part", "historical", "force"})
 """Options that take no value: their keyword is ``=True`` (``--part cannot ...`` is
 ``part=True cannot ...``, the word after it the sentence going on)."""
 _BARE = frozenset({"config"})
@@ -75,17 +76,82 @@ _PLACEHOLDERS = frozenset({
 """Names a hint asks the user to fill in (``--graph FILE``), not values (``--nav-layer PLACES``)."""
 
 
+CALLS = {"build": "aion.build", "merge": "aion.merge"}
+"""Commands the API has a function for: a command line of them quoted in a message is said
+as the call (``aion build LOG --part -o PART.aion`` -> ``aion.build(LOG, "PART.aion",
+part=True)``); any other command (``aion info MAP``) is one to run in a shell, and stays."""
+_PATH_WORD = re.compile(r"[A-Z][A-Z0-9_]*|\S*[./]\S*")
+"""A command line's log or map argument: a placeholder (``LOG``, ``LOG1``) or a file name
+(``PART.aion``, ``run.mcap``, ``...``); a plain word after the command (``aion merge fills
+them``) is the sentence going on."""
+_UNSAID = {"map": "MAP", "observed": "[...]"}
+"""What a call says for an option's value its command line leaves out (``aion build --map``
+-> ``continue_from=MAP``; else the keyword's name in capitals, ``config=CONFIG``)."""
+
+
 def api_text(text: str) -> str:
     """``text`` with each option of :data:`OPTION_KEYWORDS` (and its value) as the keyword:
     ``--detections-topic /people`` -> ``detection_topics="/people"``, ``--graph FILE`` ->
     ``graph=FILE``, ``with --nav-layer;`` -> ``with nav_layer=;``, ``--workers 1`` ->
-    ``workers=1``, ``--part`` -> ``part=True``; a command line quoted in it (``aion build LOG
-    --part``) is left whole."""
+    ``workers=1``, ``--part`` -> ``part=True``; a command line quoted in it as the API call
+    that does the same (:func:`api_call`: ``aion build --map`` -> ``aion.build(...,
+    continue_from=MAP)``), or whole when the API has none (``aion info MAP``)."""
     out, done = [], 0
     for command in _COMMAND.finditer(text):
-        out += [_OPTION.sub(_keyword, text[done : command.start()]), command.group(0)]
+        out += [_OPTION.sub(_keyword, text[done : command.start()]), api_call(command.group(0))]
         done = command.end()
     return "".join([*out, _OPTION.sub(_keyword, text[done:])])
+
+
+def api_call(command: str) -> str:
+    """The command line ``command`` (``aion build LOG1 LOG2 --part -o PART.aion``, and what
+    follows it up to the clause's end) with the command said as its call in :data:`CALLS`
+    (``aion.build([LOG1, LOG2], "PART.aion", part=True)``; ``aion merge`` alone, going on
+    with the sentence, ``aion.merge``); unchanged when the API has no such call or keyword
+    for one of its options (``aion build --print-config``)."""
+    words = command.split(" ")
+    call = CALLS.get(words[1]) if len(words) > 1 else None
+    if call is None:
+        return command
+    paths: list[str] = []
+    output: str | None = None
+    keywords: list[str] = []
+    i = 2
+    while i < len(words):
+        word, value = words[i], words[i + 1] if i + 1 < len(words) else None
+        if word == "-o" and value is not None and _PATH_WORD.fullmatch(value):
+            output, i = value, i + 2
+        elif word.startswith("--"):
+            option = word[2:]
+            if option not in OPTION_KEYWORDS:
+                return command  # an option the API has no keyword for
+            name = OPTION_KEYWORDS[option]
+            takes = option not in _FLAGS and value is not None and not value.startswith("-")
+            if option in _FLAGS:
+                keywords.append(f"{name}=True")
+            elif not takes or value == "..." or option in _BARE:
+                keywords.append(f"{name}={_UNSAID.get(option, name.upper())}")
+            else:
+                keywords.append(_OPTION.sub(_keyword, f"{word} {value}"))
+            i += 2 if takes else 1
+        elif _PATH_WORD.fullmatch(word) and word not in _NOT_VALUES:
+            paths.append(word)
+            i += 1
+        else:
+            break
+    rest = " ".join(words[i:])
+    if not paths and output is None and not keywords:
+        return call + (" " + rest if rest else "")
+    said = [_argument(p) for p in paths]
+    first = said[0] if len(said) == 1 and words[1] == "build" else f"[{', '.join(said)}]"
+    args = [first if said else "...", *([] if output is None else [_argument(output)])]
+    return f"{call}({', '.join([*args, *keywords])})" + (" " + rest if rest else "")
+
+
+def _argument(word: str) -> str:
+    """A command line's path argument as Python: a placeholder bare (``LOG``), a file name
+    quoted (``"PART.aion"``), ``...`` as itself."""
+    return word if word == "..." or re.fullmatch(r"[A-Z][A-Z0-9_]*", word) else f'"{word}"'
 
 
 def _keyword(match: re.Match[str]) -> str:

@@ -106,9 +106,9 @@ def test_build_errors_name_the_part_config_and_continue_keywords(
     with pytest.raises(AionError) as caught:
         aion.build(later, tmp_path / "p.aion", part=True, continue_from=office.map)
     assert caught.value.message == "part=True cannot continue an ordinary map"
-    # the command it suggests stays a command a shell runs, options and all
+    # the command it suggests is said as the call that does the same
     assert caught.value.hint == (
-        "build the part into a new file (aion build LOG --part -o PART.aion)"
+        'build the part into a new file (aion.build(LOG, "PART.aion", part=True))'
     )
     with pytest.raises(AionError) as caught:
         aion.build(later, tmp_path / "c.aion", continue_from=office.map, config={"bins": 16})
@@ -116,18 +116,22 @@ def test_build_errors_name_the_part_config_and_continue_keywords(
     result = run("build", later, "-o", tmp_path / "q.aion", "--part", "--map", office.map)
     assert result.exit_code == 2
     assert "error: --part cannot continue an ordinary map" in result.stderr
+    assert "hint: build the part into a new file (aion build LOG --part -o PART.aion)" in (
+        result.stderr
+    )
 
 
-def test_a_command_line_quoted_in_a_message_is_left_a_command() -> None:
+def test_a_command_line_the_api_has_a_call_for_is_said_as_the_call() -> None:
     """A fixed sensor's warning ends "declare the spans it was recording with aion build
-    --observed"; through the API it read "... with aion build observed=", and a hint's
-    `aion info GRAPH_FILE --nav-layer PLACES` read `aion info GRAPH_FILE nav_layer="PLACES"`:
-    neither a command nor Python. A quoted command keeps its options; the sentence around it
-    still speaks keywords."""
+    --observed"; through the API it read "... with aion build observed=" (neither a command nor
+    Python), then the command whole: a shell command a script's author must translate. A
+    quoted ``aion build`` / ``aion merge`` line is now the call that does the same, and a
+    command the API has no call for (``aion info``) keeps its options; the sentence around
+    it still speaks keywords."""
     from aion_cli.fixed_sensor import SILENT_HINT
 
-    assert api_text(SILENT_HINT) == SILENT_HINT
     assert SILENT_HINT.endswith("with aion build --observed")
+    assert api_text(SILENT_HINT).endswith("with aion.build(..., observed=[...])")
     assert api_text(
         "rebuild with --nav-layer naming that layer (e.g. --nav-layer PLACES); "
         "`aion info GRAPH_FILE --nav-layer PLACES` shows how many"
@@ -136,8 +140,55 @@ def test_a_command_line_quoted_in_a_message_is_left_a_command() -> None:
         "`aion info GRAPH_FILE --nav-layer PLACES` shows how many"
     )
     assert api_text("(aion build LOG --map PART.aion --observed ...); or --map A.aion") == (
-        '(aion build LOG --map PART.aion --observed ...); or continue_from="A.aion"'
+        '(aion.build(LOG, continue_from="PART.aion", observed=[...])); '
+        'or continue_from="A.aion"'
     )
+
+
+@pytest.mark.parametrize(
+    ("command", "call"),
+    [
+        ("(aion build LOG1 LOG2 --part -o PART.aion)",
+         '(aion.build([LOG1, LOG2], "PART.aion", part=True))'),
+        ("(one part map, aion build --part, alone)",
+         "(one part map, aion.build(..., part=True), alone)"),
+        ("build one with `aion build LOG`", "build one with `aion.build(LOG)`"),
+        ("(aion build FIRST.mcap -o MAP.aion, then aion build NEXT.mcap --map MAP.aion)",
+         '(aion.build("FIRST.mcap", "MAP.aion"), '
+         'then aion.build("NEXT.mcap", continue_from="MAP.aion"))'),
+        ("(aion build a.mcap b.mcap -o NEW.aion)",
+         '(aion.build(["a.mcap", "b.mcap"], "NEW.aion"))'),
+        ("(aion merge PART.aion -o MAP.aion)", '(aion.merge(["PART.aion"], "MAP.aion"))'),
+        ("continue it (aion build --map) with",
+         "continue it (aion.build(..., continue_from=MAP)) with"),
+        ("(aion info MAP shows it; aion build --config FILE)",
+         "(aion info MAP shows it; aion.build(..., config=CONFIG))"),
+        # a command alone, the sentence going on: the function's name
+        ("aion merge fills them as it joins the parts",
+         "aion.merge fills them as it joins the parts"),
+        ("; aion build drops them (docs)", "; aion.build drops them (docs)"),
+        # no call for the command, or no keyword for an option: the command line, whole
+        ("`aion build --print-config` prints", "`aion build --print-config` prints"),
+        ("query it with `aion predict x.aion`", "query it with `aion predict x.aion`"),
+    ],
+)  # fmt: skip
+def test_quoted_commands_as_calls(command: str, call: str) -> None:
+    assert api_text(command) == call
+    assert api_text(call) == call  # said once: a second pass changes nothing
+
+
+def test_merge_and_part_errors_name_the_calls_the_cli_its_commands(
+    office: Office, tmp_path: Path
+) -> None:
+    """A merge of one ordinary map said "(one part map, aion build --part, alone is made a
+    map)" to a script; it says ``aion.build(..., part=True)``, the command line still
+    ``aion build --part``."""
+    with pytest.raises(AionError) as caught:
+        aion.merge([office.map], tmp_path / "m.aion")
+    assert "(one part map, aion.build(..., part=True), alone is made a map)" in str(caught.value)
+    result = run("merge", office.map, "-o", tmp_path / "n.aion")
+    assert result.exit_code == 2
+    assert "(one part map, aion build --part, alone is made a map)" in result.stderr
 
 
 def test_flags_numbers_and_values_ending_a_clause() -> None:
@@ -196,3 +247,27 @@ def test_words_that_go_on_with_a_library_sentence_are_not_values() -> None:
     assert api_text("check --map-frame / the detections' frame_id") == (
         "check map_frame= / the detections' frame_id"
     )
+
+
+def test_an_export_refusing_to_replace_names_force_true_in_the_api(
+    office: Office, tmp_path: Path
+) -> None:
+    """Map.export into a folder whose export files lost their list said "--force replaces
+    it", an option Map.export takes as ``force=True``; the command line keeps ``--force``.
+    Both then replace the files, as the hint says."""
+    from aion_cli.export_stale import MANIFEST
+
+    m = aion.Map.load(office.map)
+    folder = tmp_path / "out"
+    m.export(folder, time="2026-11-23 08:30")
+    (folder / MANIFEST).unlink()
+    with pytest.raises(AionError) as caught:
+        m.export(folder, time="2026-11-23 08:30")
+    assert caught.value.hint == "force=True replaces it; or export into another folder"
+    assert m.export(folder, time="2026-11-23 08:30", force=True)
+    (folder / MANIFEST).unlink()
+    cli = ("export", office.map, "--time", "2026-11-23 08:30", "-o", folder)
+    result = run(*cli)
+    assert result.exit_code == 2
+    assert "hint: --force replaces it; or export into another folder" in result.stderr
+    assert run(*cli, "--force").exit_code == 0
