@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any, Generic, Union, overload
 from aion_cli import api_checks as check
 from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
-from aion_cli.api_results import Plan, Table
+from aion_cli.api_results import MEMORY, Plan, Table
 from aion_cli.api_time import query_time, query_times, query_zone, to_ns
 from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
@@ -156,6 +156,12 @@ class Map(Generic[Report]):
         zone = self._source.manifest.get("timezone")
         return zone if isinstance(zone, str) else None
 
+    @property
+    def _label(self) -> str:
+        """What names this map in its results and repr: its path, else
+        :data:`aion_cli.api_results.MEMORY` (``"<memory>"``)."""
+        return str(self.path) if self.path is not None else MEMORY
+
     def _zone(self, tz: object) -> Zone:
         """``tz``, else the map's zone (:func:`aion_cli.api_time.query_zone`)."""
         return query_zone(tz, self.timezone)
@@ -224,7 +230,7 @@ class Map(Generic[Report]):
         rows, _ = predicted_records(self._loaded, t_ns, layer, wanted, point, top)
         notes = () if t_ns is None or zone is None else tuple(self._notes(time, zone, t_ns))
         return Table(
-            str(self.path) if self.path is not None else "<memory>",
+            self._label,
             t_ns,
             None if t_ns is None or zone is None else format_ns(t_ns, zone),
             None if zone is None else zone.name,
@@ -272,8 +278,7 @@ class Map(Generic[Report]):
         times = series_times(t0, t1, every, zone, ("start", "end"), typed=start)
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
-        label = str(self.path) if self.path is not None else "<memory>"
-        made = described(table, label, zone, labels, hour_flags(self._loaded, times))
+        made = described(table, self._label, zone, labels, hour_flags(self._loaded, times))
         return replace(made, notes=tuple(self._notes(start, zone, times[0], times)))
 
     @one_at_a_time
@@ -391,7 +396,7 @@ class Map(Generic[Report]):
         force = check.flag(force, "force")
         times, zone = query_times(time, historical, series, step, tz, self.timezone)
         ends = self._path_ends(path)
-        label = str(self.path) if self.path is not None else "<memory>"
+        label = self._label
         if format == "dsg" and ends is not None:
             raise InputError(
                 "a scene-graph file holds no path: leave out path",
@@ -438,7 +443,7 @@ class Map(Generic[Report]):
         self._check_file()
         times, zone = query_times(time, historical, series, step, tz, self.timezone)
         ends = self._path_ends(path)
-        name = self.path.name if self.path is not None else "<memory>"
+        name = self.path.name if self.path is not None else MEMORY
         return export_png(self._loaded, name, as_path(file), times, zone, ends, option="file")
 
     @one_at_a_time
@@ -483,7 +488,7 @@ class Map(Generic[Report]):
         self.__dict__.update(unpickled(state))
 
     def __repr__(self) -> str:
-        where = str(self.path) if self.path is not None else "in memory"
+        where = self._label
         with self._lock:  # from its manifest (what it cannot do too): its state is not read
             entries, kind = self._source.entry_count(), self._source.kind()
         if entries is None:

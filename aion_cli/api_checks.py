@@ -235,9 +235,10 @@ def path_text(value: object, what: str) -> str:
     for its file is refused with the way to its file)."""
     if not isinstance(value, str | os.PathLike):
         from aion_cli.api import Map
+        from aion_cli.api_results import MEMORY
 
         if isinstance(value, Map):  # aion.merge([m1, m2], ...): the maps' files are meant
-            given = f"the aion.Map {value.path or 'in memory'}"  # (its repr reads its state)
+            given = f"the aion.Map {value.path or MEMORY}"  # (its repr reads its state)
             hint = (
                 "give the map's file: its .path" if value.path is not None
                 else "a map in memory has no file: save it first (.save(path) returns the file)"

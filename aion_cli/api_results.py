@@ -19,6 +19,12 @@ if TYPE_CHECKING:
     from aion_cli.routes import Route, Routes
     from aion_cli.timeparse import Zone
 
+MEMORY = "<memory>"
+"""What names a map made in memory (``Map.from_state``, not saved yet) where a file's path
+would: ``Table.map`` and ``SeriesTable.map`` (their ``to_dict()``'s ``"map"``), the reprs of
+the map and its results, an export's and a picture's label; in ``<...>``, as Python names
+``<stdin>``, so no file name is read for it."""
+
 
 @dataclass(frozen=True)
 class Table:

@@ -108,9 +108,11 @@ class SeriesTable:
     def __repr__(self) -> str:
         """What the series is, in one line (not its entries and arrays, which a notebook
         would print whole): its map, size and span."""
+        from aion_cli.api_results import MEMORY
+
         n, k = len(self.entries), len(self.times_ns)
         text = (
-            f"<aion.SeriesTable {self.map or '<memory>'}: {n:,} entr{'y' if n == 1 else 'ies'}"
+            f"<aion.SeriesTable {self.map or MEMORY}: {n:,} entr{'y' if n == 1 else 'ies'}"
             f" x {k:,} time{'' if k == 1 else 's'}"
         )
         if self.times:

@@ -243,10 +243,19 @@ def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
     mapper.add_detections(batch)
     mapper.advance(t0 + 4 * 3600 * 10**9)
     m = aion.Map.from_state(mapper.state, timezone="UTC")
+    at = t0 + 2 * 3600 * 10**9
+    # not saved yet: one label names it everywhere a file's path would (was "<memory>" in a
+    # table, "in memory" in the map's repr)
+    table, series = m.predict(at), m.predict_series(at, at + 3600 * 10**9)
+    assert table.map == series.map == table.to_dict()["map"] == series.to_dict()["map"]
+    assert table.map == "<memory>"
+    assert repr(m).startswith("<aion.Map <memory>: ")
+    assert repr(table).startswith("<aion.Table <memory> at ")
+    assert repr(series).startswith("<aion.SeriesTable <memory>: ")
     saved = m.save(tmp_path / "memory.aion")
     again = aion.Map.load(saved)
-    at = t0 + 2 * 3600 * 10**9
     assert again.predict(at).records() == m.predict(at).records()
+    assert m.predict(at).map == str(saved)  # saved, it is named by its file
     assert again.manifest.graph_source == "memory"
     assert again.timezone == "UTC"
     # its repr counts the live entries (the cells the 400 detections fell in), not the
@@ -254,7 +263,7 @@ def test_an_in_memory_state_is_saved_and_reloads_equal(tmp_path: Path) -> None:
     cells = len({tuple(k) for k in np.floor(xyz[:, :2] / 0.5).astype(int).tolist()})
     assert repr(again) == f"<aion.Map {saved}: {cells:,} entries>"
     empty = aion.Map.from_state(Mapper(ModelConfig()).state, timezone="UTC")
-    assert repr(empty) == "<aion.Map in memory: 0 entries>"
+    assert repr(empty) == "<aion.Map <memory>: 0 entries>"
 
 
 def test_a_table_says_whether_its_hour_was_observed(tmp_path: Path) -> None:

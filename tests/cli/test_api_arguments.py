@@ -418,7 +418,7 @@ def test_a_map_given_for_its_file_is_told_where_its_file_is(
         assert e.value.hint == "give the map's file: its .path"
     assert m._source.loaded is None  # the error read none of the map's state
     memory = aion.Map.from_state(Mapper(ModelConfig()).state, timezone="UTC")
-    with pytest.raises(InputError, match=re.escape("got the aion.Map in memory")) as e:
+    with pytest.raises(InputError, match=re.escape("got the aion.Map <memory>")) as e:
         aion.compact(memory, tmp_path / "robot.aion")
     assert e.value.hint is not None
     assert "save it first" in e.value.hint
