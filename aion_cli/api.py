@@ -254,13 +254,14 @@ class Map(Generic[Report]):
         top: int | None = None,
     ) -> SeriesTable:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
-        ``end`` inclusive (``step`` as ``"1h"``, ``"30m"`` or seconds of elapsed time, or
-        ``"1d"`` / ``"1w"``: calendar days in ``tz``, the same wall-clock time every day across
-        a daylight-saving change), as ``aion predict --from --to --step``: an
-        :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and
-        ``flow_per_hour`` as arrays entries x times; ``records()`` as its JSON's entries,
-        ``to_dict()`` as the whole document, with ``times``, ``zone`` and ``hour_observed``);
-        each value equals :meth:`predict` at that time."""
+        ``end`` inclusive (``step``: elapsed time as ``"1h"``, ``"30m"``, ``"1h30m"``,
+        ``"600s"``, seconds, a ``timedelta`` or a ``numpy.timedelta64``; or ``"1d"`` / ``"1w"``:
+        calendar days in ``tz``, the same wall-clock time every day across a daylight-saving
+        change, where ``timedelta(days=1)`` is 24 h), as ``aion predict --from --to --step``:
+        an :class:`aion_cli.prediction_series.SeriesTable` (``flow`` and ``flow_per_hour`` as
+        arrays entries x times; ``records()`` as its JSON's entries, ``to_dict()`` as the whole
+        document, with ``times``, ``zone`` and ``hour_observed``); each value equals
+        :meth:`predict` at that time."""
         from dataclasses import replace
 
         from aion_cli.prediction_series import described, predict_series, series_times
@@ -296,10 +297,11 @@ class Map(Generic[Report]):
         """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
         coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
         the distance-only path beside it (``Plan.distance_only``), as ``aion plan``. With
-        ``leave=(earliest, latest)``: the best departure every ``step`` (``"10m"`` or
-        seconds; ``"10m"`` when not given) after ``earliest`` up to ``latest``, which must be
-        later, every departure's cost in ``Plan.departures`` (``--leave``); ``step`` without
-        ``leave`` is refused, as ``--step`` without ``--leave``."""
+        ``leave=(earliest, latest)``: the best departure every ``step`` (as
+        :meth:`predict_series` takes it: ``"10m"``, ``"1d"``, seconds, a ``timedelta`` or a
+        ``numpy.timedelta64``; ``"10m"`` when not given) after ``earliest`` up to ``latest``,
+        which must be later, every departure's cost in ``Plan.departures`` (``--leave``);
+        ``step`` without ``leave`` is refused, as ``--step`` without ``--leave``."""
         from dataclasses import replace
 
         from aion_cli.mapquery import nav_graph
