@@ -117,9 +117,10 @@ class Map(Generic[Report]):
     @classmethod
     def from_state(cls, state: MapState, timezone: ZoneLike | None = None) -> Map[None]:
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g. to
-        :meth:`save` it; its scene graph and manifest (its queries' notes) are the state's now:
-        wrap it again after feeding more. A loaded map's state is refused: its queries count its
-        pending day and open window as closed, in place (:meth:`save` copies a loaded map)."""
+        :meth:`save` it; its scene graph and manifest (its queries' notes; its time span, the log
+        times fed: :func:`aion_cli.api_make.state_span`) are the state's now: wrap it again after
+        feeding more. A loaded map's state is refused: its queries count its pending day and
+        open window as closed, in place (:meth:`save` copies a loaded map)."""
         from aion_cli.api_make import state_map
 
         return Map(state_map(state, timezone))
@@ -158,8 +159,7 @@ class Map(Generic[Report]):
 
     @property
     def _label(self) -> str:
-        """What names this map in its results and repr: its path, else
-        :data:`aion_cli.api_results.MEMORY` (``"<memory>"``)."""
+        """The map's name in its results and repr: its path, else ``"<memory>"`` (MEMORY)."""
         return str(self.path) if self.path is not None else MEMORY
 
     def _zone(self, tz: object) -> Zone:

@@ -433,6 +433,7 @@ def state_manifest(state: MapState, timezone: str | None) -> Manifest:
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import state_counts
 
+    start, end = state_span(state)
     return Manifest(
         state={},
         config=state.config.to_dict(),
@@ -445,7 +446,26 @@ def state_manifest(state: MapState, timezone: str | None) -> Manifest:
         graph_source="memory",
         timezone=timezone,
         families=family_summary(state),
+        start_ns=start,
+        end_ns=end,
     )
+
+
+def state_span(state: MapState) -> tuple[int | None, int | None]:
+    """The span of log time a state fed in memory knows (what a build records as its logs'
+    ``time_span``, for the notes of queries far from it): from the earliest time fed
+    (``first_time_ns``) or fixed-sensor interval to the latest (``log_time_ns``) or interval
+    end; ``(None, None)`` when it knows no start or no end (a state read from a file
+    and continued keeps no first time)."""
+    observed = state.observation
+    starts = [] if state.first_time_ns is None else [int(state.first_time_ns)]
+    ends = [] if state.log_time_ns is None else [int(state.log_time_ns)]
+    if observed.fixed_start.size:
+        starts.append(int(observed.fixed_start.min()))
+        ends.append(int(observed.fixed_end.max()))
+    if not starts or not ends:
+        return None, None
+    return min(starts), max(ends)
 
 
 def write_state(state: MapState, timezone: str | None, target: Path) -> None:

@@ -117,6 +117,7 @@ class Mapper:
         t_first, t_last = int(batch.t_ns.min()), int(batch.t_ns.max())
         check_time(t_first, "a detection")
         check_time(t_last, "a detection")
+        self._fed_at(t_first)
         ijk, finite, hashable = hashable_indices(batch.xyz, st.config.cell_size)
         first_window = t_first // self._delta  # floor, as window_index
         if np.count_nonzero(hashable) == len(batch) and (
@@ -156,6 +157,7 @@ class Mapper:
         if st.open_window is not None:
             close_windows(st, int(snapshot.t_ns) // self._delta)  # window_index, in int
         apply_graph(st, snapshot)
+        self._fed_at(int(snapshot.t_ns))
         st.log_time_ns = _later(st.log_time_ns, int(snapshot.t_ns))
         bind_cells(st, st.log_time_ns)
 
@@ -167,6 +169,7 @@ class Mapper:
         self._state.observation.add_trajectory(trajectory)
         if len(trajectory):
             self._start_at(int(np.min(trajectory.t_ns)))
+            self._fed_at(int(np.min(trajectory.t_ns)))
 
     def set_fixed_sensor(self, start_ns: int, end_ns: int) -> None:
         """Everything is observed in windows overlapping ``[start_ns, end_ns)``, each for the
@@ -188,6 +191,13 @@ class Mapper:
         self._state.observation.add_fixed_windows(w, self._delta, within)
         if w.size:
             self._start_at(int(w.min()) * self._delta)
+
+    def _fed_at(self, t_ns: int) -> None:
+        """Log time ``t_ns`` was fed (a detection, graph, pose or :meth:`advance`): the
+        state's ``first_time_ns`` is the earliest, the start of the span ``Map.from_state``
+        records (a build records its logs')."""
+        first = self._state.first_time_ns
+        self._state.first_time_ns = t_ns if first is None else min(first, t_ns)
 
     def _start_at(self, t_ns: int) -> None:
         """An observation source starts at ``t_ns``: before anything was recorded, the map
@@ -217,6 +227,7 @@ class Mapper:
         if st.open_window is None:
             st.open_window = target
         close_windows(st, target)
+        self._fed_at(int(t_ns))
         st.log_time_ns = _later(st.log_time_ns, int(t_ns))
         bind_cells(st, st.log_time_ns)
 

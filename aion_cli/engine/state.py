@@ -69,6 +69,8 @@ class MapState:
     graph: GraphSnapshot | None = None
     open_window: int | None = None
     log_time_ns: int | None = None
+    #: the earliest log time a Mapper was fed (not in a map file; ``Map.from_state``'s span)
+    first_time_ns: int | None = field(default=None, compare=False)
     accepted: int = 0
     dropped: dict[str, int] = field(default_factory=lambda: dict.fromkeys(DROP_REASONS, 0))
     routes: RouteTable = field(default_factory=RouteTable)

@@ -56,12 +56,46 @@ def test_an_in_memory_map_notes_what_its_saved_copy_notes(tmp_path: Path) -> Non
         assert m.predict("2026-01-05 10:30").hour_observed is True
         night = m.predict("2026-01-05 03:00")
         assert night.hour_observed is False
-        assert len(night.notes) == 2
+        assert len(night.notes) == 3
         assert night.notes[0].startswith("every entry forecasts its static rate")
         assert "the map has 0 scored days" in night.notes[0]
-        assert night.notes[1].startswith("no log observed 03:00-04:00 (UTC) on any day")
-        assert "(the map observed 10:00-11:00)" in night.notes[1]
+        # the span fed, 10:00 .. 10:59:50, recorded as a build records its logs'
+        assert night.notes[1] == "this time is 7 hours before the map's data (2026-01-05)"
+        assert night.notes[2].startswith("no log observed 03:00-04:00 (UTC) on any day")
+        assert "(the map observed 10:00-11:00)" in night.notes[2]
         series = m.predict_series("2026-01-05 09:00", "2026-01-05 11:00", "1h", top=1)
         assert series.hour_observed == (False, True, False)  # fed 10:00:00 .. 10:59:50
     assert mem.manifest.counts["used"] == saved.manifest.counts["used"] == 357
     assert mem.manifest.families["observed_bins"] == saved.manifest.families["observed_bins"]
+
+
+def test_a_saved_in_memory_map_records_the_span_a_log_built_map_records(tmp_path: Path) -> None:
+    """The same detections fed in memory and written as a log then built: the map built
+    records its log's span (first to last message) and its queries five weeks later say
+    "5 weeks after the map's data"; the map from the state recorded no span, so neither it
+    nor its saved copy said so. Both now record the state's first and last detection."""
+    from tests.cli.conftest import run
+
+    t = T0 + np.arange(0, 3600, 10) * 10**9
+    x = np.linspace(0, 5, len(t))
+    csv = tmp_path / "tracks.csv"
+    rows = [f"{int(ti)},1,{xi:.6f},0,0,0,1" for ti, xi in zip(t, x, strict=True)]
+    csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "\n".join(rows) + "\n")
+    log = tmp_path / "tracks.mcap"
+    assert run("convert", csv, "-o", log).exit_code == 0
+    built = aion.build(log, tmp_path / "built.aion", tz="UTC")
+    assert (built.manifest.start_ns, built.manifest.end_ns) == (int(t[0]), int(t[-1]))
+
+    mapper = Mapper(ModelConfig())
+    n = len(t)
+    mapper.add_detections(
+        DetectionBatch.from_arrays(t, np.c_[x, np.zeros(n), np.zeros(n)], np.zeros(n), np.ones(n))
+    )
+    mem = aion.Map.from_state(mapper.state, timezone="UTC")
+    saved = aion.Map.load(mem.save(tmp_path / "mem.aion"))
+    later = "2026-02-09 10:30"  # five weeks after Monday 2026-01-05
+    said = [n for n in built.predict(later).notes if "after the map's data" in n]
+    assert said == ["this time is 5 weeks after the map's data (2026-01-05)"]  # static rates
+    for m in (mem, saved):
+        assert (m.manifest.start_ns, m.manifest.end_ns) == (int(t[0]), int(t[-1]))
+        assert [n for n in m.predict(later).notes if "after the map's data" in n] == said
