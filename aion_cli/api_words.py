@@ -76,10 +76,11 @@ _PLACEHOLDERS = frozenset({
 """Names a hint asks the user to fill in (``--graph FILE``), not values (``--nav-layer PLACES``)."""
 
 
-CALLS = {"build": "aion.build", "merge": "aion.merge"}
+CALLS = {"build": "aion.build", "merge": "aion.merge", "predict": "Map.predict"}
 """Commands the API has a function for: a command line of them quoted in a message is said
 as the call (``aion build LOG --part -o PART.aion`` -> ``aion.build(LOG, "PART.aion",
-part=True)``); any other command (``aion info MAP``) is one to run in a shell, and stays."""
+part=True)``, ``aion predict MAP --node p4`` -> ``aion.Map.load(MAP).predict(nodes="p4")``);
+any other command (``aion info MAP``) is one to run in a shell, and stays."""
 _PATH_WORD = re.compile(r"[A-Z][A-Z0-9_]*|\S*[./]\S*")
 """A command line's log or map argument: a placeholder (``LOG``, ``LOG1``) or a file name
 (``PART.aion``, ``run.mcap``, ``...``); a plain word after the command (``aion merge fills
@@ -143,6 +144,11 @@ def api_call(command: str) -> str:
     if not paths and output is None and not keywords:
         return call + (" " + rest if rest else "")
     said = [_argument(p) for p in paths]
+    if words[1] == "predict":  # the map, then the query: aion.Map.load(MAP).predict(...)
+        if len(said) != 1 or output is not None:
+            return command
+        called = f"aion.Map.load({said[0]}).predict({', '.join(keywords)})"
+        return called + (" " + rest if rest else "")
     first = said[0] if len(said) == 1 and words[1] == "build" else f"[{', '.join(said)}]"
     args = [first if said else "...", *([] if output is None else [_argument(output)])]
     return f"{call}({', '.join([*args, *keywords])})" + (" " + rest if rest else "")

@@ -167,9 +167,14 @@ def test_a_command_line_the_api_has_a_call_for_is_said_as_the_call() -> None:
         ("aion merge fills them as it joins the parts",
          "aion.merge fills them as it joins the parts"),
         ("; aion build drops them (docs)", "; aion.build drops them (docs)"),
+        ("query it with `aion predict x.aion`",
+         'query it with `aion.Map.load("x.aion").predict()`'),
+        ("(aion predict MAP --layer rooms --top 5)",
+         '(aion.Map.load(MAP).predict(layer="rooms", top=5))'),
         # no call for the command, or no keyword for an option: the command line, whole
         ("`aion build --print-config` prints", "`aion build --print-config` prints"),
-        ("query it with `aion predict x.aion`", "query it with `aion predict x.aion`"),
+        ("the table alone: aion predict MAP --time T --format csv > FILE.csv",
+         "the table alone: aion predict MAP --time T --format csv > FILE.csv"),
     ],
 )  # fmt: skip
 def test_quoted_commands_as_calls(command: str, call: str) -> None:
@@ -271,3 +276,23 @@ def test_an_export_refusing_to_replace_names_force_true_in_the_api(
     assert result.exit_code == 2
     assert "hint: --force replaces it; or export into another folder" in result.stderr
     assert run(*cli, "--force").exit_code == 0
+
+
+def test_a_plan_from_a_hash_cell_hints_the_predict_call_in_the_api(
+    office: Office, tmp_path: Path
+) -> None:
+    """A plan from a hash cell's id hinted "(aion predict MAP --node c... shows it)" to a
+    script too; the API says the call, ``aion.Map.load(MAP).predict(nodes="c...")``, the
+    command line its command."""
+    from aion_cli.engine.node_ids import INDEX_MASK
+
+    cell = f"c{INDEX_MASK + 1}"
+    with pytest.raises(AionError) as caught:
+        aion.Map.load(office.map).plan(cell, "p1", time="2026-01-12 08:40")
+    assert caught.value.hint == (
+        f'give its position as x,y (aion.Map.load(MAP).predict(nodes="{cell}") shows it), a '
+        "place id or a room"
+    )
+    result = run("plan", office.map, "--from", cell, "--to", "p1", "--time", "2026-01-12 08:40")
+    assert result.exit_code == 2
+    assert f"(aion predict MAP --node {cell} shows it)" in result.stderr
