@@ -38,6 +38,7 @@ OPTION_KEYWORDS = {
     "historical": "historical",
     "lineage": "lineage",
     "force": "force",
+    "time": "time",
 }
 """Command-line options and the API keywords that take the same value."""
 
@@ -120,6 +121,11 @@ def api_call(command: str) -> str:
     i = 2
     while i < len(words):
         word, value = words[i], words[i + 1] if i + 1 < len(words) else None
+        taken = 1  # words the value spans: a quoted one (--time "2026-01-05 08:00") more
+        while value is not None and value.startswith('"') and not _closed(value):
+            if i + 1 + taken >= len(words):
+                return command  # a quote the clause does not close
+            value, taken = f"{value} {words[i + 1 + taken]}", taken + 1
         if word == "-o" and value is not None and _PATH_WORD.fullmatch(value):
             output, i = value, i + 2
         elif word.startswith("--"):
@@ -132,9 +138,11 @@ def api_call(command: str) -> str:
                 keywords.append(f"{name}=True")
             elif not takes or value == "..." or option in _BARE:
                 keywords.append(f"{name}={_UNSAID.get(option, name.upper())}")
+            elif value is not None and value.startswith('"'):
+                keywords.append(f"{name}={value}")
             else:
                 keywords.append(_OPTION.sub(_keyword, f"{word} {value}"))
-            i += 2 if takes else 1
+            i += 1 + taken if takes else 1
         elif _PATH_WORD.fullmatch(word) and word not in _NOT_VALUES:
             paths.append(word)
             i += 1
@@ -152,6 +160,11 @@ def api_call(command: str) -> str:
     first = said[0] if len(said) == 1 and words[1] == "build" else f"[{', '.join(said)}]"
     args = [first if said else "...", *([] if output is None else [_argument(output)])]
     return f"{call}({', '.join([*args, *keywords])})" + (" " + rest if rest else "")
+
+
+def _closed(value: str) -> bool:
+    """Whether the quoted value ``value`` (``"2026-01-05``, ``"2026-01-05 08:00"``) ends."""
+    return len(value) > 1 and value.endswith('"')
 
 
 def _argument(word: str) -> str:

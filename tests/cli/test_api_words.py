@@ -296,3 +296,16 @@ def test_a_plan_from_a_hash_cell_hints_the_predict_call_in_the_api(
     result = run("plan", office.map, "--from", cell, "--to", "p1", "--time", "2026-01-12 08:40")
     assert result.exit_code == 2
     assert f"(aion predict MAP --node {cell} shows it)" in result.stderr
+
+
+def test_the_sim_time_warning_names_the_predict_call_with_its_quoted_time() -> None:
+    """A log on a simulation's clock is warned "query it at times of its own (aion predict MAP
+    --time "1970-01-05 08:00")"; in the API's words the quoted time, spaces and all, is the
+    ``time`` of the call, and an unclosed quote leaves the command whole."""
+    from aion_cli.stamp_warnings import sim_time_warning
+
+    text = sim_time_warning(4 * 86_400 * 10**9 + 3600 * 10**9)  # Monday 1970-01-05 01:00
+    assert text is not None
+    assert '(aion predict MAP --time "1970-01-05 08:00")' in text
+    assert '(aion.Map.load(MAP).predict(time="1970-01-05 08:00"))' in api_text(text)
+    assert api_text('aion predict MAP --time "08:00') == 'aion predict MAP --time "08:00'
