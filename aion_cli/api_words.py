@@ -143,6 +143,8 @@ def api_call(command: str) -> str:
             else:
                 keywords.append(_OPTION.sub(_keyword, f"{word} {value}"))
             i += 1 + taken if takes else 1
+        elif word.startswith("-"):
+            return command  # an option the API has no keyword for (-o without a file)
         elif _PATH_WORD.fullmatch(word) and word not in _NOT_VALUES:
             paths.append(word)
             i += 1

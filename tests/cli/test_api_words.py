@@ -309,3 +309,8 @@ def test_the_sim_time_warning_names_the_predict_call_with_its_quoted_time() -> N
     assert '(aion predict MAP --time "1970-01-05 08:00")' in text
     assert '(aion.Map.load(MAP).predict(time="1970-01-05 08:00"))' in api_text(text)
     assert api_text('aion predict MAP --time "08:00') == 'aion predict MAP --time "08:00'
+
+
+def test_a_command_with_an_option_the_api_cannot_say_stays_whole() -> None:
+    assert api_text("(aion build LOG -o)") == "(aion build LOG -o)"
+    assert api_text("(aion build LOG --part -x y)") == "(aion build LOG --part -x y)"
