@@ -1,7 +1,8 @@
 """Errors raised through the Python API in its own words: the library's messages and hints
 are shared with the command line and name its options (``--detections-topic /people``); a
-script gives keywords (``detection_topics="/people"``). :func:`in_api_words` rewrites the
-option names an error mentions, once, as the error leaves the API (:mod:`aion_cli.api_checks`
+script gives keywords (``detection_topics="/people"``) and calls (``aion.build(LOG,
+part=True)``, not ``aion build LOG --part``). :func:`in_api_words` rewrites the option names
+and command lines an error mentions, once, as the error leaves the API (:mod:`aion_cli.api_checks`
 wraps every public function and method)."""
 
 from __future__ import annotations
