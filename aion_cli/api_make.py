@@ -305,6 +305,8 @@ def reading_options(
         "base_frame": text(options.get("base_frame"), "base_frame") or "base_link",
         "detections_mapping": _optional_path(options.get("detections_mapping"), "mapping"),
         "observed": spans,
+        # as given, for the warning on a span apart from the logs (aion_cli.times_apart)
+        "observed_typed": tuple((f"{ta}..{tb}", span) for (ta, tb), span in zip(given, spans)),
     }
     frame = text(options.get("map_frame"), "map_frame")
     if frame is not None:  # spelt as the logs' frames are (/map is map), as --map-frame is

@@ -100,6 +100,9 @@ class BuildOptions:
     #: the spans of ``observed`` the logs record with empty marker messages (``aion convert
     #: --observed``; :mod:`aion_cli.log_observed`): a window only markers hold has no message
     observed_marked: tuple[tuple[int, int], ...] = ()
+    #: the ``--observed`` spans as the user typed them and as read, ``(text, (lo, hi))``:
+    #: those apart from the logs' messages are warned of (:mod:`aion_cli.times_apart`)
+    observed_typed: tuple[tuple[str, tuple[int, int]], ...] = ()
     #: internal (a parallel build's shards): the first and last window the ``--observed``
     #: spans may fill beyond the shard's own logs, its share of the time between the groups
     #: of logs (:func:`aion_cli.fixed_sensor.declared_windows`); None: the logs' own

@@ -39,6 +39,7 @@ from aion_cli.engine.state import DROP_REASONS
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
 from aion_cli.log_times import check_after_open, other_clock_error, overlap_note
+from aion_cli.times_apart import apart_warnings, joined_times
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -69,6 +70,7 @@ class StreamStep:
     previous: LoadedMap | None
     previous_manifest: Manifest | None
     _times: TimeCheck
+    _whole_times: TimeCheck
     _marks: I64
     _part_total: int | None
     _map_open: int | None
@@ -82,6 +84,8 @@ class StreamStep:
     #: the continued map's graph, which the first scene graph the stream applies is checked
     #: against (``--lineage auto``: :meth:`continue_on_logs`); None once checked, or not to be
     _lineage_graph: GraphSnapshot | None = None
+    #: the first and last robot pose of the agent layers the observation used (None: none)
+    _agent_times: tuple[int, int] | None = None
 
     def continue_on_logs(self, logset: Any, plan: TopicPlan, peek: bool = False) -> None:
         """Whether the logs' own scene graphs go on in the continued map's session (without
@@ -223,6 +227,17 @@ class StreamStep:
                 mapper, logset, self._times, self.report.notes, self.report, self.opts.observed,
                 marks=self._marks,
             )
+        if not self.shard:  # a parallel build's parent checks its shards' together
+            self.report.warnings.extend(apart_warnings(
+                self.opts, *self.times_apart(), self.report.observation
+            ))
+
+    def times_apart(self) -> tuple[tuple[int, int] | None, tuple[int, int] | None]:
+        """What :func:`aion_cli.times_apart.apart_warnings` checks: the whole logs' first and
+        last message, and the first and last robot pose of the agent layers the stream used
+        (None: none)."""
+        first, last = self._whole_times.start_ns, self._whole_times.end_ns
+        return (None if first is None or last is None else (first, last)), self._agent_times
 
     def _leave(
         self,
@@ -344,6 +359,7 @@ class StreamStep:
         mapper.add_graph(snapshot)
         if use_agents:
             self.graphs.add_agent_poses(mapper, snapshot.agents)
+            self._agent_times = joined_times(self._agent_times, snapshot.agents)
         self.report.graph_messages += 1
 
 

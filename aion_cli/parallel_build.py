@@ -275,6 +275,11 @@ class ParallelBuild:
         self.build.join_span(min(starts, default=None), max(ends, default=None))
         report.notes.extend(folded.notes)
         self._overlap(folded.reports)
+        from aion_cli.times_apart import apart_warnings, joined
+
+        messages = joined([r.times_apart[0] for r in results])
+        agents = joined([r.times_apart[1] for r in results])
+        report.warnings.extend(apart_warnings(self.opts, messages, agents, report.observation))
         where = "Dask cluster" if self.opts.scheduler else f"{workers} worker processes"
         slowest = max((r.seconds for r in results), default=0.0)
         peak = max((r.peak_rss_mb for r in results), default=0.0)

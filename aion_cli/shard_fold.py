@@ -66,6 +66,9 @@ class ShardResult:
     seconds: float = 0.0
     peak_rss_mb: float = 0.0
     worker: str = ""
+    #: the shard's logs' first and last message, and its agent layers' first and last robot
+    #: pose (``StreamStep.times_apart``): the parent checks them all together
+    times_apart: tuple[tuple[int, int] | None, tuple[int, int] | None] = (None, None)
 
     def without_state(self) -> ShardResult:
         """The result's summary, once its state is folded (states are the large part)."""
@@ -144,6 +147,7 @@ def build_shard(task: ShardTask, progress: ProgressSink | None = None) -> ShardR
         time.perf_counter() - begin,
         _peak_rss_mb(),
         f"{os.uname().nodename}:{os.getpid()}",
+        build.times_apart(),
     )
 
 
@@ -277,7 +281,8 @@ def rebuild_onto(state: MapState, task: ShardTask, before: Folded | None = None)
     from aion_cli.build_report import NoProgress
 
     build = _shard_build(task, NoProgress(), before, start=state)
-    return ShardResult(task.index, build.learn(task.config).state, build.report)
+    state = build.learn(task.config).state
+    return ShardResult(task.index, state, build.report, times_apart=build.times_apart())
 
 
 def _names(logs: tuple[Path, ...]) -> str:

@@ -348,6 +348,7 @@ def command(
         scheduler=scheduler,
         part=part,
         observed=observed,
+        observed_typed=tuple(zip(observed_text, observed, strict=True)),
     )
     with _RichProgress(fmt == "json") as progress:
         report = build_map(options, progress)

@@ -330,7 +330,7 @@ def command(
             "poses of the graph's own recording) is left out of the log: a dataset has no "
             "robot, so the build observes with the log's messages and --observed spans"
         )
-    _warn_spans_without_detections(spans, summary, zone)
+    _warn_spans_without_detections(observed_text, spans, summary, zone)
     if layout == "canonical" and summary.first_detection_ns is not None:
         _warn_time_unit(tracks.name, summary.first_detection_ns, summary.last_detection_ns)
     if summary.observed_spans:
@@ -476,21 +476,16 @@ def _warn_stray_times(name: str, times: Any, zone: Any) -> None:
 
 
 def _warn_spans_without_detections(
-    spans: list[tuple[int, int]], summary: Any, zone: Any
+    texts: tuple[str, ...], spans: list[tuple[int, int]], summary: Any, zone: Any
 ) -> None:
-    """A warning for each ``--observed`` span that lies wholly before the first detection or
-    after the last: most likely a span typed in the wrong zone or hour (it is still written:
-    a sensor may well have recorded nobody then)."""
-    first, last = summary.first_detection_ns, summary.last_detection_ns
-    if first is None or last is None:
-        return
+    """A warning for each ``--observed`` span (``texts`` as typed) that lies apart from the
+    detections (:func:`aion_cli.times_apart.span_apart`: wholly before the first or after the
+    last, or reaching more than a week and the detections' own span beyond them): most
+    likely a span typed in the wrong zone, hour or year (it is still written: a sensor may
+    well have recorded nobody then)."""
     from aion_cli.cli.console import warn
-    from aion_cli.timeparse import format_ns
+    from aion_cli.times_apart import observed_apart_warnings
 
-    outside = [(a, b) for a, b in spans if b <= first or a > last]
-    for a, b in outside[:3]:
-        warn(
-            f"--observed {format_ns(a, zone)}..{format_ns(b, zone)} holds no detection: "
-            f"the detections run from {format_ns(first, zone)} to {format_ns(last, zone)} "
-            "(a span in another time zone or hour?)"
-        )
+    first, last = summary.first_detection_ns, summary.last_detection_ns
+    for line in observed_apart_warnings(texts, spans, first, last, zone, "the detections"):
+        warn(line)

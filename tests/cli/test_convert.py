@@ -135,9 +135,12 @@ def test_observed_spans_become_empty_messages(tmp_path: Path) -> None:
     # the zone read the spans, and the log carries it for the build (no --tz needed there)
     assert "the log carries the zone Europe/Berlin" in " ".join(result.stderr.split())
     # the second span lies hours after the minute of detections: a likely typo, said once
-    warned = [line for line in result.stderr.splitlines() if "holds no detection" in line]
+    warned = [line for line in result.stderr.splitlines() if "apart" in line or "wholly" in line]
     assert len(warned) == 1
-    assert "2026-11-23 14:00:00+01:00..2026-11-23 14:30:00+01:00" in warned[0]
+    # named as typed, then as read and beside the detections' times, in the zone of --tz
+    assert f'--observed "{later}..{later + 1800}"' in warned[0]
+    assert "(2026-11-23 14:00:00+01:00 .. 2026-11-23 14:30:00+01:00) lies wholly after" in warned[0]
+    assert "the detections (2026-11-23 09:00:00+01:00 .. 2026-11-23 09:00:59+01:00)" in warned[0]
     times, frames, windows = read_back(log)
     assert times == sorted(times)
     assert len(times) == 60 + marks
