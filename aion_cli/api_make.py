@@ -306,7 +306,9 @@ def reading_options(
         "detections_mapping": _optional_path(options.get("detections_mapping"), "mapping"),
         "observed": spans,
         # as given, for the warning on a span apart from the logs (aion_cli.times_apart)
-        "observed_typed": tuple((f"{ta}..{tb}", span) for (ta, tb), span in zip(given, spans)),
+        "observed_typed": tuple(
+            (f"{ta}..{tb}", span) for (ta, tb), span in zip(given, spans, strict=True)
+        ),
     }
     frame = text(options.get("map_frame"), "map_frame")
     if frame is not None:  # spelt as the logs' frames are (/map is map), as --map-frame is

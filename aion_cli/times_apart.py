@@ -5,8 +5,8 @@ The rule for a declared span ``[lo, hi)`` (docs/ROBUSTNESS.md, time sanity, "Tim
 against the logs' first and last message ``first``, ``last``:
 
 * it lies wholly before ``first`` or wholly after ``last``: it holds no message of the logs,
-  which is what a mistyped date, a time in another zone or a UNIX time in the wrong unit
-  gives; or
+  which is what a mistyped date, a time in another zone or a UNIX time with digits lost
+  gives (UNIX milliseconds given as seconds are refused when read: beyond year 5000); or
 * it reaches beyond the logs (before ``first`` or after ``last``) by more than
   :data:`FAR_NS` (7 days) and more than the logs' own span ``last - first``: one week is a
   whole cycle of the map's week model, so more than that adds every hour of the week again as
@@ -86,7 +86,7 @@ def observed_apart_warnings(
             f'--observed "{text}" ({format_ns(int(lo), zone)} .. {format_ns(int(hi), zone)}) '
             f"{how} {what} ({format_ns(int(first), zone)} .. {format_ns(int(last), zone)}): "
             "its windows without a message still count as observed and empty; hint: a "
-            "mistyped date, a time in another zone, a UNIX time in the wrong unit? If the "
+            "mistyped date, a time in another zone, a UNIX time with digits lost? If the "
             "sensor really ran then with nobody passing, this is right"
         )
     if len(out) > MOST:  # the count of the rest, in place of the first one left out

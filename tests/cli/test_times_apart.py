@@ -66,7 +66,7 @@ def test_span_apart_rule() -> None:
         ("2016-01-05 10:00..2016-01-05 12:00", "lies wholly before"),  # year mistyped
         ("2026-01-05 12:00..2026-01-05 13:00", "lies wholly after"),  # an hour after the last
         ("2016-01-05 10:00..2026-01-05 12:00", "reaches 3,653.0 days beyond"),  # reaching back
-        ("1767607..1767610", "lies wholly before"),  # UNIX ms read as seconds: 1970-01-21
+        ("1767607..1767610", "lies wholly before"),  # UNIX seconds with 3 digits lost: 1970-01-21
     ],
 )
 def test_build_warns_of_a_span_apart(tmp_path: Path, span: str, how: str) -> None:
