@@ -26,7 +26,7 @@ from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
 from aion_cli.errors import InputError, MessageDecodeError, PartialGraphError
 from aion_cli.formats.dsg_delta import GraphReader
 from aion_cli.graph_schedule import graph_schedule
-from aion_cli.topics import FRONTEND_REASON
+from aion_cli.topics import FRONTEND_REASON, several_graph_topics
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
@@ -486,15 +486,3 @@ def graph_source(
         return None
     report.graph_source = "derived from walking people"
     return derive()
-
-
-def several_graph_topics(names: list[str]) -> InputError:
-    """The refusal of logs with several scene-graph streams at the same time and no
-    ``--graph-topic``: their graphs would take turns as the map's graph (another place set,
-    frame or session with every message), and the map would keep whichever came last."""
-    return InputError(
-        f"the logs carry {len(names)} scene-graph topics at the same time "
-        f"({', '.join(names)}): their graphs would take turns as the map's graph; nothing "
-        "was built",
-        hint=f"name the one to build on with --graph-topic (e.g. --graph-topic {names[0]})",
-    )

@@ -61,6 +61,7 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 from aion_cli.manifest import InputLog, Manifest, add_counts
 from aion_cli.merge_config import adopt_config, check_compatible
+from aion_cli.merge_frames import common_frame, frame_warning
 from aion_cli.merge_lineage import check_lineage, choose_lineage
 from aion_cli.merge_names import naming_map, shared_names
 from aion_cli.merge_report import MergedInput, MergeReport
@@ -429,7 +430,7 @@ def _write(
     if tail is not None and type(counts.get("recording_reach")) is int:  # as one build's
         counts["recording_reach"] = max(counts["recording_reach"], (tail - 1) // merged.window_ns)
     stats = state_counts(merged)
-    frames = _frame_warning([(m.name, m.manifest.map_frame) for m in maps])
+    frames = frame_warning([(m.name, m.manifest.map_frame) for m in maps])
     if frames is not None:
         report.warnings.append(frames)
     far = far_from_graph_of(merged, stats)
@@ -454,7 +455,7 @@ def _write(
         families=family_summary(merged),
         merged_from=tuple(m.file.to_dict() for m in maps),
         lineage=report.lineage,
-        map_frame=_common_frame([m.manifest.map_frame for m in maps]),
+        map_frame=common_frame([m.manifest.map_frame for m in maps]),
     )
     write_map(report.output, arrays, manifest.to_dict(), lock=False)  # the caller holds the lock
     report.inputs = [
@@ -470,29 +471,6 @@ def _write(
     report.map_bytes = report.output.stat().st_size
     report.hours_observed = observed_hours(
         manifest.families, manifest.config, merged.config.timezone
-    )
-
-
-def _common_frame(frames: list[str | None]) -> str | None:
-    """The map frame every input records (None when one records none or they differ)."""
-    first = frames[0] if frames else None
-    return first if first is not None and all(f == first for f in frames) else None
-
-
-def _frame_warning(frames: list[tuple[str, str | None]]) -> str | None:
-    """The warning for maps that record different map frames (``right_laser`` and
-    ``rear_laser``: their positions are merged as if one frame); None when they record one
-    (maps that record none, written before the record, say nothing)."""
-    known = [(name, f) for name, f in frames if f is not None]
-    distinct = len({f for _, f in known})
-    if distinct < 2:
-        return None
-    listed = ", ".join(f"{name}: {f!r}" for name, f in known)
-    return (
-        f"the maps hold positions in different frames ({listed}): they are merged as if "
-        f"{'both' if distinct == 2 else f'all {distinct}'} were one frame, and the merged "
-        "map records none; merge maps of one frame "
-        "(aion info MAP --format json: map_frame)"
     )
 
 

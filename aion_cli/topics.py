@@ -16,7 +16,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.errors import TopicNotFoundError
+from aion_cli.errors import InputError, TopicNotFoundError
 
 if TYPE_CHECKING:
     from aion_cli.formats.detections.mapping import TopicMapping
@@ -468,4 +468,16 @@ def refuse_not_people(logset: Any, info: TopicInfo) -> None:
         f"{info.topic}: {info.msgtype} holds {kind}, not detections of people: no mapping "
         "reads people from it",
         hint=hint,
+    )
+
+
+def several_graph_topics(names: list[str]) -> InputError:
+    """The refusal of logs with several scene-graph streams at the same time and no
+    ``--graph-topic``: their graphs would take turns as the map's graph (another place set,
+    frame or session with every message), and the map would keep whichever came last."""
+    return InputError(
+        f"the logs carry {len(names)} scene-graph topics at the same time "
+        f"({', '.join(names)}): their graphs would take turns as the map's graph; nothing "
+        "was built",
+        hint=f"name the one to build on with --graph-topic (e.g. --graph-topic {names[0]})",
     )

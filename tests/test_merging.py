@@ -411,12 +411,12 @@ def test_a_damaged_recording_windows_count_is_left_out_of_a_merge(tmp_path: Path
 
 
 def test_a_merge_keeps_the_map_frame_its_inputs_share() -> None:
-    from aion_cli.merging import _common_frame
+    from aion_cli.merge_frames import common_frame
 
-    assert _common_frame(["odom", "odom"]) == "odom"
-    assert _common_frame(["odom", "map"]) is None  # different frames: none recorded
-    assert _common_frame(["odom", None]) is None  # a map from before the record
-    assert _common_frame([]) is None
+    assert common_frame(["odom", "odom"]) == "odom"
+    assert common_frame(["odom", "map"]) is None  # different frames: none recorded
+    assert common_frame(["odom", None]) is None  # a map from before the record
+    assert common_frame([]) is None
 
 
 def test_maps_of_different_frames_merge_with_a_warning(tmp_path: Path) -> None:
@@ -447,11 +447,11 @@ def test_maps_of_different_frames_merge_with_a_warning(tmp_path: Path) -> None:
 
 def test_three_frames_are_not_called_both() -> None:
     """Three maps of three frames were "merged as if both were one frame"."""
-    from aion_cli.merging import _frame_warning
+    from aion_cli.merge_frames import frame_warning
 
-    two = _frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "y")])
+    two = frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "y")])
     assert two is not None
     assert "as if both were one frame" in two
-    three = _frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "z")])
+    three = frame_warning([("a.aion", "x"), ("b.aion", "y"), ("c.aion", "z")])
     assert three is not None
     assert "as if all 3 were one frame" in three
