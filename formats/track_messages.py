@@ -6,6 +6,7 @@ logs; ``formats.detections.fast`` reads the same offsets back."""
 from __future__ import annotations
 
 import struct
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -105,6 +106,65 @@ def tracked_persons_bytes(
     head += b"\x00" * (-len(head) % 4) + count
     head += b"\x00" * (-len(head) % 8 if len(records) else 0)  # first uint64 aligned to 8
     return _CDR_LE + head + records.tobytes()
+
+
+def tracked_persons_many(
+    records: npt.NDArray[np.void],
+    bounds: list[int],
+    stamps: npt.NDArray[np.int64],
+    seqs: npt.NDArray[np.int64],
+    frame_id: str,
+    cdr: bool,
+) -> Iterator[bytes]:
+    """Many TrackedPersons messages, yielded one at a time (memory for one message's bytes
+    beyond ``records``): message ``i`` holds ``records[bounds[i] : bounds[i + 1]]``, stamped
+    ``stamps[i]`` with header seq ``seqs[i]``, byte for byte :func:`tracked_persons_bytes` of
+    the same arguments. The headers are built as one numpy array and each message is one
+    join of its header and its records' bytes (one copy), not two ``struct.pack`` calls, a
+    ``tobytes`` and three concatenations per message. Messages without records, and values
+    the header's fields do not hold (which ``struct`` refuses), go through
+    :func:`tracked_persons_bytes` itself, so they come out (or fail) as they did there."""
+    stamps = np.asarray(stamps, dtype=np.int64)
+    seqs = np.asarray(seqs, dtype=np.int64)
+    first, ends = np.asarray(bounds[:-1], np.int64), np.asarray(bounds[1:], np.int64)
+    count = ends - first
+    sec, nsec = np.divmod(stamps, 1_000_000_000)
+    sec_max = 2**31 - 1 if cdr else 2**32 - 1
+    if len(stamps) and (
+        int(count.min()) < 1
+        or int(sec.min()) < 0
+        or int(sec.max()) > sec_max
+        or (not cdr and (int(seqs.min()) < 0 or int(seqs.max()) > 2**32 - 1))
+    ):
+        for a, b, t, q in zip(bounds[:-1], bounds[1:], stamps.tolist(), seqs.tolist(),
+                              strict=True):
+            yield tracked_persons_bytes(records[a:b], t, frame_id, cdr, q)
+        return
+    frame = frame_id.encode() + (b"\x00" if cdr else b"")
+    if cdr:  # encapsulation, sec, nsec, string with terminator, count aligned to 4, then 8
+        at_count = 4 + 12 + len(frame) + (-(12 + len(frame)) % 4)
+        size = at_count + 4 + (-at_count % 8)  # the 8 counts after the 4 bytes
+        fields = [("enc", "V4", 0), ("sec", "<i4", 4), ("nsec", "<u4", 8), ("flen", "<u4", 12)]
+    else:  # ROS 1: seq, sec, nsec, string without terminator, count, packed
+        at_count = 16 + len(frame)
+        size = at_count + 4
+        fields = [("seq", "<u4", 0), ("sec", "<u4", 4), ("nsec", "<u4", 8), ("flen", "<u4", 12)]
+    fields += [("count", "<u4", at_count)] + ([("frame", f"V{len(frame)}", 16)] if frame else [])
+    dtype = np.dtype({"names": [f[0] for f in fields], "formats": [f[1] for f in fields],
+                      "offsets": [f[2] for f in fields], "itemsize": size})
+    head = np.zeros(len(stamps), dtype=dtype)
+    if cdr:
+        head["enc"] = np.void(_CDR_LE)
+    else:
+        head["seq"] = seqs
+    head["sec"], head["nsec"], head["flen"], head["count"] = sec, nsec, len(frame), count
+    if frame:
+        head["frame"] = np.void(frame)
+    heads = memoryview(head.tobytes())
+    body = np.ascontiguousarray(records).view(np.uint8).data
+    item = records.dtype.itemsize
+    for h, a, b in zip(range(0, len(stamps) * size, size), bounds[:-1], bounds[1:], strict=True):
+        yield b"".join((heads[h : h + size], body[a * item : b * item]))
 
 
 def pose_array_message(

@@ -26,6 +26,7 @@ from aion_cli.formats.track_messages import (
     pose_array_message,
     tracked_person_records,
     tracked_persons_bytes,
+    tracked_persons_many,
 )
 from aion_cli.formats.track_types import (
     FarRows,
@@ -267,20 +268,27 @@ class _Messages:
         """One message per group of ``data`` (time-sorted rows, groups split at ``splits``
         and stamped ``stamps``); ``first_id`` numbers the rows (TrackedPerson ids)."""
         cdr = self.writer.ros_version == 2
+        bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
+        # the markers each message follows: a message's header seq counts them too
+        after = np.maximum(np.searchsorted(self.marks, stamps, "left"), self.next_mark)
         if self.kind == SPENCER_TRACKED:
-            records = tracked_person_records(data, cdr, first_id)
+            seqs = self.seq + np.arange(len(stamps)) + (after - self.next_mark)
+            raws = tracked_persons_many(
+                tracked_person_records(data, cdr, first_id), bounds, stamps, seqs,
+                self.frame_id, cdr,
+            )
         else:
             quat_a, _, known_h, _ = orientation_velocity(data)  # no heading: unset (zero)
             quat = np.where(known_h[:, None], quat_a, 0.0).tolist()
             xyz = data.xyz.tolist()
-        bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
-        for t, a, b in zip(stamps.tolist(), bounds[:-1], bounds[1:], strict=True):
-            self.marks_before(t)
+        for i, (t, mark_end) in enumerate(zip(stamps.tolist(), after.tolist(), strict=True)):
+            if mark_end > self.next_mark:
+                self.marks_before(t)
             self._before(t, detection=True)
             if self.kind == SPENCER_TRACKED:
-                raw = tracked_persons_bytes(records[a:b], t, self.frame_id, cdr, self.seq)
-                self.writer.write_raw(self.topic, self.kind, raw, t)
+                self.writer.write_raw(self.topic, self.kind, next(raws), t)
             else:
+                a, b = bounds[i], bounds[i + 1]
                 msg = pose_array_message(t, xyz[a:b], quat[a:b], self.frame_id)
                 self.writer.write(self.topic, self.kind, msg, t)
             self.seq += 1
@@ -303,8 +311,6 @@ class _Messages:
     def _before(self, t: int, detection: bool) -> None:
         """Bookkeeping before a message at ``t``: the scene graph, if one is due and the
         message is a detection message (or the lone graph's marker)."""
-        from aion_cli.formats.writers import stamp
-
         self.topic_times.append(t)
         if self.first_ns is None:
             self.first_ns = t
@@ -312,6 +318,8 @@ class _Messages:
         self.last_ns = t
         while (detection or self.graph_clock) and self.graph_next is not None \
                 and self.graph_next <= t:
+            from aion_cli.formats.writers import stamp
+
             g = self.graph_next if self.graph_clock else t
             self.writer.write(
                 self.graph_topic,

@@ -1,0 +1,116 @@
+"""``tracked_persons_many`` (a convert's messages built a chunk at a time) against the
+message-at-a-time ``tracked_persons_bytes`` it replaces, and the header seq it is given."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from aion_cli.engine.types import DetectionBatch
+from aion_cli.formats import track_messages, tracks_log
+
+S = 1_000_000_000
+
+
+def _batch(n: int, seed: int) -> DetectionBatch:
+    """``n`` rows of made-up detections, some without heading or speed (unset covariances)."""
+    rng = np.random.default_rng(seed)
+    heading = rng.uniform(-np.pi, np.pi, n)
+    heading[rng.random(n) < 0.3] = np.nan
+    speed = rng.uniform(0, 2, n)
+    speed[rng.random(n) < 0.3] = np.nan
+    return DetectionBatch.from_arrays(
+        t_ns=np.zeros(n, np.int64),
+        xyz=rng.normal(size=(n, 3)),
+        heading=heading,
+        speed=speed,
+        track_id=rng.integers(0, 2**40, n),
+    )
+
+
+def _one_at_a_time(
+    records: np.ndarray, bounds: list[int], stamps: list[int], seqs: list[int], frame: str,
+    cdr: bool,
+) -> list[bytes]:
+    return [
+        track_messages.tracked_persons_bytes(records[a:b], t, frame, cdr, q)
+        for a, b, t, q in zip(bounds[:-1], bounds[1:], stamps, seqs, strict=True)
+    ]
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    sizes=st.lists(st.integers(0, 4), min_size=0, max_size=8),
+    frame=st.text(max_size=9),
+    cdr=st.booleans(),
+    first_s=st.integers(0, 2**32 - 50),
+    first_seq=st.integers(0, 2**32 - 20),
+    seed=st.integers(0, 2**16),
+)
+def test_many_equals_one_at_a_time(
+    sizes: list[int], frame: str, cdr: bool, first_s: int, first_seq: int, seed: int
+) -> None:
+    """Every message's bytes, for every frame length (CDR pads after the string), empty
+    messages, and stamps / seqs up to and past what the header holds (ROS 2 seconds end at
+    2^31 - 1, where both refuse with ``struct.error``)."""
+    bounds = np.concatenate([[0], np.cumsum(sizes)]).astype(int).tolist()
+    records = track_messages.tracked_person_records(_batch(bounds[-1], seed), cdr, first_id=3)
+    stamps = [(first_s + 7 * i) * S + i * 999_999 for i in range(len(sizes))]
+    seqs = [first_seq + 2 * i for i in range(len(sizes))]
+    try:
+        expected = _one_at_a_time(records, bounds, stamps, seqs, frame, cdr)
+    except struct.error:
+        with pytest.raises(struct.error):
+            list(track_messages.tracked_persons_many(
+                records, bounds, np.array(stamps), np.array(seqs), frame, cdr))
+        return
+    got = list(track_messages.tracked_persons_many(
+        records, bounds, np.array(stamps), np.array(seqs), frame, cdr))
+    assert got == expected
+
+
+@pytest.mark.parametrize("cdr", [True, False])
+def test_many_known_header_bytes(cdr: bool) -> None:
+    """One message of one record, its header spelt out by hand."""
+    records = track_messages.tracked_person_records(_batch(1, 0), cdr)
+    (raw,) = track_messages.tracked_persons_many(
+        records, [0, 1], np.array([5 * S + 6]), np.array([9]), "ab", cdr)
+    if cdr:  # encapsulation; sec 5, nsec 6, "ab\0" (3), pad to 4, count 1, pad to 8
+        head = b"\x00\x01\x00\x00" + struct.pack("<iII", 5, 6, 3) + b"ab\x00" + b"\x00" \
+            + struct.pack("<I", 1) + b"\x00" * 4
+    else:  # seq 9, sec 5, nsec 6, "ab", count 1
+        head = struct.pack("<IIII", 9, 5, 6, 2) + b"ab" + struct.pack("<I", 1)
+    assert raw == head + records.tobytes()
+
+
+def test_ros1_header_seq_counts_the_marker_messages(tmp_path: Path) -> None:
+    """A ROS 1 header's seq numbers every detection and marker message in log order, also
+    where the markers fall between detection messages: detections at 10, 50 and 100 s and
+    an observed span 0..70 s (markers at 0, 30, 60 and 70 - 1 ns) make the messages
+    0 (marker), 10 (det), 30, 50 (det), 60, 70 - 1 ns, 100 (det), seq 0..6."""
+    from mcap.reader import make_reader
+
+    batch = DetectionBatch.from_arrays(
+        t_ns=[10 * S, 50 * S, 50 * S, 100 * S],
+        xyz=[[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]],
+        track_id=[1, 1, 2, 1],
+    )
+    out = tmp_path / "seq.mcap"
+    tracks_log.tracks_to_log(batch, out, container="mcap-ros1", observed=[(0, 70 * S)])
+    with out.open("rb") as fh:
+        got = [
+            (m.log_time, *struct.unpack_from("<IIII", m.data), m.data)
+            for _, ch, m in make_reader(fh).iter_messages()
+            if ch.topic == "/people_tracker/tracked_persons"
+        ]
+    times = [0, 10 * S, 30 * S, 50 * S, 60 * S, 70 * S - 1, 100 * S]
+    assert [g[0] for g in got] == times
+    assert [g[1] for g in got] == list(range(7))  # seq
+    assert [(g[2], g[3]) for g in got] == [divmod(t, S) for t in times]
+    counts = [struct.unpack_from("<I", d, 16 + g[4])[0] for *g, d in got]
+    assert counts == [0, 1, 0, 2, 0, 0, 1]
