@@ -185,3 +185,31 @@ class RepeatedRows:
         self.rows += int(mask.sum())
         self.elsewhere += elsewhere
         return data.select(~mask)
+
+
+@dataclass
+class DistinctIds:
+    """Counts the distinct track ids over a stream of batches. ``np.union1d`` of everything
+    seen with each batch sorts every id seen once per batch, a cost that grows with the
+    square of a file's length (0.85 s of a 3.1 M-row ATC convert); here each batch's
+    distinct ids wait and are merged once they outnumber the ids merged so far, so each id
+    is sorted a few times, and memory stays about twice the distinct ids."""
+
+    merged: npt.NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
+    pending: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    waiting: int = 0  # ids in pending
+
+    def add(self, track_id: npt.NDArray[np.int64]) -> None:
+        distinct = np.unique(track_id)
+        self.pending.append(distinct)
+        self.waiting += len(distinct)
+        if self.waiting > len(self.merged):
+            self._merge()
+
+    def _merge(self) -> None:
+        self.merged = np.unique(np.concatenate([self.merged, *self.pending]))
+        self.pending, self.waiting = [], 0
+
+    def __len__(self) -> int:
+        self._merge()
+        return len(self.merged)

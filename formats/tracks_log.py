@@ -29,6 +29,7 @@ from aion_cli.formats.track_messages import (
     tracked_persons_many,
 )
 from aion_cli.formats.track_types import (
+    DistinctIds,
     FarRows,
     NegativeTrackIdError,
     RepeatedRows,
@@ -389,7 +390,7 @@ def _write_tracks(
         graph_payload(graph_file) if graph_file is not None else (None, 0, ())
     )
     rows = groups = 0
-    track_ids = np.zeros(0, np.int64)
+    track_ids = DistinctIds()
     with LogWriter(out_path, container, overwrite=overwrite) as writer:
         declared = _declared_metadata(timezone, spans)
         if declared:  # before the first message: a ROS 1 bag's latched topics
@@ -415,7 +416,7 @@ def _write_tracks(
             check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0
             last_detection = int(chunk.t_ns[-1])
-            track_ids = np.union1d(track_ids, chunk.track_id)
+            track_ids.add(chunk.track_id)
             data = chunk if held is None else DetectionBatch.concat([held, chunk])
             keys = _group_keys(data.t_ns, group_ns, t0)
             cut = int(np.searchsorted(keys, keys[-1], "left"))  # the last message's rows

@@ -1,5 +1,6 @@
-"""``tracked_persons_many`` (a convert's messages built a chunk at a time) against the
-message-at-a-time ``tracked_persons_bytes`` it replaces, and the header seq it is given."""
+"""A convert's fast paths against the slow ones they replace: ``tracked_persons_many`` (the
+messages built a chunk at a time) against the message-at-a-time ``tracked_persons_bytes``,
+the header seq it is given, and ``DistinctIds`` against ``np.unique`` of all the ids."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.formats import track_messages, tracks_log
+from aion_cli.formats.track_types import DistinctIds
 
 S = 1_000_000_000
 
@@ -114,3 +116,30 @@ def test_ros1_header_seq_counts_the_marker_messages(tmp_path: Path) -> None:
     assert [(g[2], g[3]) for g in got] == [divmod(t, S) for t in times]
     counts = [struct.unpack_from("<I", d, 16 + g[4])[0] for *g, d in got]
     assert counts == [0, 1, 0, 2, 0, 0, 1]
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.lists(st.integers(-5, 40), max_size=30), max_size=12), st.booleans())
+def test_distinct_ids_counts_as_unique_of_everything(
+    batches: list[list[int]], ask_between: bool
+) -> None:
+    """However the ids fall into batches (repeats within and across them, empty ones), the
+    count is that of the distinct ids of all of them, also when asked between batches."""
+    ids = DistinctIds()
+    seen: set[int] = set()
+    for batch in batches:
+        ids.add(np.array(batch, dtype=np.int64))
+        seen.update(batch)
+        if ask_between:
+            assert len(ids) == len(seen)
+    assert len(ids) == len(seen) == len(np.unique([i for b in batches for i in b]))
+
+
+def test_distinct_ids_merge_as_they_go() -> None:
+    """Ids wait in batches only while they are fewer than those merged: 100 batches of the
+    same ten ids never hold more than about twice ten."""
+    ids = DistinctIds()
+    for _ in range(100):
+        ids.add(np.arange(10, dtype=np.int64))
+        assert ids.waiting + len(ids.merged) <= 2 * 10
+    assert len(ids) == 10
