@@ -3,9 +3,10 @@
 :func:`tracks_to_log` turns a batch (plus optionally a Hydra graph and the observed spans,
 written as empty detection messages at :func:`observed_stamps`) into a log of spencer
 ``TrackedPersons`` (serialized with numpy, :func:`tracked_person_records` /
-:func:`tracked_persons_bytes`) or ``PoseArray`` messages; :func:`stream_tracks_to_log` does
-the same for a file read :data:`formats.track_csv.CHUNK_ROWS` lines at a time. Reading the
-files is :mod:`formats.tracks`' job; this module only writes.
+:func:`tracked_persons_many`: a chunk's messages at once) or ``PoseArray`` messages;
+:func:`stream_tracks_to_log` does the same for a file read
+:data:`formats.track_csv.CHUNK_ROWS` lines at a time. Reading the files is
+:mod:`formats.tracks`' job; this module only writes.
 """
 
 from __future__ import annotations
