@@ -1,7 +1,9 @@
 """Detection batches as the messages of a log: spencer ``TrackedPersons`` serialized with
 numpy (every row's ``TrackedPerson`` record built at once as a structured array, CDR or ROS 1
-layout) and ``geometry_msgs/PoseArray`` dicts. :mod:`formats.tracks_log` writes them into
-logs; ``formats.detections.fast`` reads the same offsets back."""
+layout) and ``geometry_msgs/PoseArray`` messages (numpy ``Pose`` records the same way, or
+dicts for rosbags to serialize: the empty markers, and stamps its signed seconds refuse).
+:mod:`formats.tracks_log` writes them into logs; ``formats.detections.fast`` reads the same
+offsets back."""
 
 from __future__ import annotations
 
@@ -108,6 +110,18 @@ def tracked_persons_bytes(
     return _CDR_LE + head + records.tobytes()
 
 
+def pose_records(batch: DetectionBatch) -> npt.NDArray[np.void]:
+    """Every row's serialized ``geometry_msgs/Pose`` (position, then the heading's yaw
+    quaternion, all zero where the heading is unknown, as :func:`pose_array_message`
+    is given it), one 56-byte record a row: what :func:`tracked_persons_many` joins into
+    PoseArray messages (the same header, count and 8-alignment as TrackedPersons)."""
+    quat, _, known_h, _ = orientation_velocity(batch)
+    rec = np.zeros(len(batch), dtype=[("pose", "<f8", (7,))])
+    rec["pose"][:, :3] = batch.xyz
+    rec["pose"][:, 3:] = np.where(known_h[:, None], quat, 0.0)
+    return rec
+
+
 def tracked_persons_many(
     records: npt.NDArray[np.void],
     bounds: list[int],
@@ -121,7 +135,9 @@ def tracked_persons_many(
     ``stamps[i]`` with header seq ``seqs[i]``, byte for byte :func:`tracked_persons_bytes` of
     the same arguments. The headers are built as one numpy array and each message is one
     join of its header and its records' bytes (one copy), not two ``struct.pack`` calls, a
-    ``tobytes`` and three concatenations per message. Messages without records, and values
+    ``tobytes`` and three concatenations per message. PoseArray messages have the same
+    layout (header, count, 8-aligned records): ``records`` from :func:`pose_records` gives
+    them, byte for byte what rosbags serializes. Messages without records, and values
     the header's fields do not hold (which ``struct`` refuses), go through
     :func:`tracked_persons_bytes` itself, so they come out (or fail) as they did there."""
     stamps = np.asarray(stamps, dtype=np.int64)

@@ -25,6 +25,7 @@ from aion_cli.formats.track_csv import CHUNK_ROWS, track_chunks
 from aion_cli.formats.track_messages import (
     orientation_velocity,
     pose_array_message,
+    pose_records,
     tracked_person_records,
     tracked_persons_bytes,
     tracked_persons_many,
@@ -273,13 +274,13 @@ class _Messages:
         bounds = np.concatenate([[0], splits, [len(data)]]).tolist()
         # the markers each message follows: a message's header seq counts them too
         after = np.maximum(np.searchsorted(self.marks, stamps, "left"), self.next_mark)
-        if self.kind == SPENCER_TRACKED:
-            seqs = self.seq + np.arange(len(stamps)) + (after - self.next_mark)
-            raws = tracked_persons_many(
-                tracked_person_records(data, cdr, first_id), bounds, stamps, seqs,
-                self.frame_id, cdr,
-            )
-        else:
+        seqs = self.seq + np.arange(len(stamps)) + (after - self.next_mark)
+        sec = int(stamps[-1]) // 1_000_000_000 if len(stamps) else 0
+        if self.kind == SPENCER_TRACKED or sec < 2**31:  # rosbags' Time: signed seconds
+            records = tracked_person_records(data, cdr, first_id) \
+                if self.kind == SPENCER_TRACKED else pose_records(data)
+            raws = tracked_persons_many(records, bounds, stamps, seqs, self.frame_id, cdr)
+        else:  # a PoseArray rosbags serializes, for the error it gives
             quat_a, _, known_h, _ = orientation_velocity(data)  # no heading: unset (zero)
             quat = np.where(known_h[:, None], quat_a, 0.0).tolist()
             xyz = data.xyz.tolist()
@@ -287,7 +288,7 @@ class _Messages:
             if mark_end > self.next_mark:
                 self.marks_before(t)
             self._before(t, detection=True)
-            if self.kind == SPENCER_TRACKED:
+            if self.kind == SPENCER_TRACKED or sec < 2**31:
                 self.writer.write_raw(self.topic, self.kind, next(raws), t)
             else:
                 a, b = bounds[i], bounds[i + 1]

@@ -1,10 +1,12 @@
 """A convert's fast paths against the slow ones they replace: ``tracked_persons_many`` (the
 messages built a chunk at a time) against the message-at-a-time ``tracked_persons_bytes``,
-the header seq it is given, and ``DistinctIds`` against ``np.unique`` of all the ids."""
+and with ``pose_records`` against rosbags' serialization of ``pose_array_message``; the
+header seq it is given; ``DistinctIds`` against ``np.unique`` of all the ids."""
 
 from __future__ import annotations
 
 import struct
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -143,3 +145,39 @@ def test_distinct_ids_merge_as_they_go() -> None:
         ids.add(np.arange(10, dtype=np.int64))
         assert ids.waiting + len(ids.merged) <= 2 * 10
     assert len(ids) == 10
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    sizes=st.lists(st.integers(1, 4), min_size=1, max_size=5),
+    frame=st.sampled_from(["", "map", "odom_x", "base_link"]),
+    container=st.sampled_from(["mcap", "mcap-ros1"]),
+    first_s=st.integers(0, 2**31 - 50),
+    seed=st.integers(0, 2**16),
+)
+def test_pose_arrays_equal_rosbags_serialization(
+    sizes: list[int], frame: str, container: str, first_s: int, seed: int
+) -> None:
+    """PoseArray messages from ``pose_records`` are the bytes rosbags serializes from the
+    dicts ``pose_array_message`` builds (what a convert wrote before), headings unknown
+    (zero quaternion) or known, in ROS 2 (CDR) and ROS 1 layout with its header seq."""
+    from aion_cli.formats.writers import LogWriter
+
+    batch = _batch(sum(sizes), seed)
+    bounds = np.concatenate([[0], np.cumsum(sizes)]).astype(int).tolist()
+    stamps = [(first_s + 3 * i) * S + 17 * i for i in range(len(sizes))]
+    seqs = [5 + i for i in range(len(sizes))]
+    quat_a, _, known_h, _ = track_messages.orientation_velocity(batch)
+    quat = np.where(known_h[:, None], quat_a, 0.0).tolist()
+    xyz = batch.xyz.tolist()
+    with tempfile.TemporaryDirectory() as tmp, LogWriter(Path(tmp) / "w.mcap", container) as w:
+        cdr = w.ros_version == 2
+        expected = []
+        for a, b, t, q in zip(bounds[:-1], bounds[1:], stamps, seqs, strict=True):
+            msg = track_messages.pose_array_message(t, xyz[a:b], quat[a:b], frame)
+            if not cdr:
+                msg["header"]["seq"] = q
+            expected.append(w.serialize(tracks_log.POSE_ARRAY, msg))
+    got = track_messages.tracked_persons_many(
+        track_messages.pose_records(batch), bounds, np.array(stamps), np.array(seqs), frame, cdr)
+    assert list(got) == expected
