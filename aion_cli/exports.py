@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.formats.outputs import Staged
+from aion_cli.formats.outputs import Staged, cannot_write
 from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
@@ -273,7 +273,7 @@ def export_scene_file(
         if t_ns is None
         else query.predict_table(loaded.state, t_ns)
     )
-    with naming(out), Staged(out) as staged:
+    with cannot_write(out), naming(out), Staged(out) as staged:
         scratch = staged.folder / "scene"  # the other files are dropped with the staging
         scratch.mkdir()
         files = write_scene(
@@ -384,32 +384,33 @@ def _node_record(row: dict[str, Any]) -> dict[str, Any]:
 
 FILE_FORMATS = {".png": "png", ".mcap": "mcap", ".json": "dsg", ".sparkdsg": "dsg"}
 """Output suffixes that name one file, and the format that writes it."""
+FORMAT_SUFFIX = {"png": ".png", "mcap": ".mcap", "dsg": ".json", "ply": ".ply", "pcd": ".pcd"}
 
 
 def export_format(fmt: str | None, out: Path) -> str:
     """The format to write: ``fmt`` if given (``--format``), else the one the output's suffix
-    names (a .png picture, an .mcap series, a .json / .sparkdsg scene graph, a .ply / .pcd
-    scene file: :func:`scene_file`), else ply (a folder). A PLY / PCD export to an output
-    named as another format's file (``--format pcd -o map.png``) or as a table
-    (``-o flows.csv``) and not an existing folder is refused rather than made a folder of
-    that name."""
+    names (:data:`FILE_FORMATS`, .ply / .pcd: :func:`scene_file`), else ply (a folder). Refused
+    rather than written under a misleading name: a suffix naming another format (``--format png
+    -o x.mcap``) or a table (``-o flows.csv``, but for an existing folder), or only a suffix."""
     from aion_cli.errors import InputError
 
-    suffix = out.suffix.lower()
-    if fmt is None:
-        fmt = FILE_FORMATS.get(suffix, "pcd" if suffix == ".pcd" else "ply")
-    # a table's name too: -o flows.csv made a folder flows.csv/ of PLY files
-    other = {*FILE_FORMATS, ".ply", ".pcd", ".csv"} - {f".{fmt}"}
-    if fmt in SCENE_FORMATS and not out.is_dir() and suffix in other:
-        table = (
-            "; the table alone: aion predict MAP --time T --format csv > FILE.csv"
-            if suffix == ".csv"
-            else ""
-        )
+    named = {**FILE_FORMATS, ".ply": "ply", ".pcd": "pcd", ".csv": "table"}
+    if out.name.lower() in named and not out.is_dir():  # Path(".png").suffix is ""
         raise InputError(
-            f"{fmt} scenes are written into a folder (the scene as .{fmt} files, entries.csv and "
-            f"entries.json) or one .{fmt} file, got {str(out)!r}",
-            hint=f"name a folder (e.g. out/) or a .{fmt} file{table}",
+            f"{str(out)!r} is only a suffix: name the file before it",
+            hint=f"e.g. map{out.name.lower()}, or a folder (e.g. out/) for PLY frames",
+        )
+    said = named.get(suffix := out.suffix.lower())
+    default = "" if fmt else " (the default)"
+    fmt = fmt or (said if said and said != "table" else "ply")
+    if said not in (None, fmt) and not (fmt in SCENE_FORMATS and out.is_dir()):
+        raise InputError(
+            f"the format {fmt}{default} and the name {str(out)!r} disagree: {suffix} is the "
+            f"suffix of {'a table' if said == 'table' else f'format {said}'}",
+            hint=f"name it {out.with_suffix(FORMAT_SUFFIX[fmt]).name}"
+            + (", or a folder (e.g. out/)" if fmt in SCENE_FORMATS else "")
+            + ("; the table alone: aion predict MAP --time T --format csv > FILE.csv"
+               if said == "table" else f", or give the format {said}"),
         )
     return fmt
 

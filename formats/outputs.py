@@ -41,7 +41,7 @@ import re
 import shutil
 import stat
 import tempfile
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from aion_cli.errors import InputError, path_word
@@ -329,6 +329,23 @@ def _fsync_file(path: Path) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+
+
+@contextlib.contextmanager
+def cannot_write(out: Path) -> Iterator[None]:
+    """Turn an ``OSError`` writing the output ``out`` (its staging folder beside it refused:
+    a folder not writable, a full disk) into ``ExportWriteError`` "cannot write OUT: REASON",
+    the one wording of a picture (``--png``, ``-o x.png``) and a scene file (``aion plan
+    --export``, ``aion export -o x.ply``), rather than a bare OS error."""
+    from aion_cli.formats.export import ExportWriteError
+
+    try:
+        yield
+    except OSError as exc:
+        raise ExportWriteError(
+            f"cannot write {out}: {exc.strerror or exc}",
+            hint="check free disk space and that the folder is writable",
+        ) from exc
 
 
 class Staged:

@@ -63,18 +63,11 @@ def check_png_target(out: Path, option: str = "-o") -> None:
 
 def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
     """Write the matplotlib figure ``fig`` to ``out`` atomically (checked first)."""
-    from aion_cli.formats.export import ExportWriteError
-    from aion_cli.formats.outputs import Staged
+    from aion_cli.formats.outputs import Staged, cannot_write
 
     check_png_target(out, option)
-    try:
-        with Staged(out) as staged:
-            save_marked_png(fig, staged.path, dpi=fig.dpi, facecolor="white")
-    except OSError as exc:
-        raise ExportWriteError(
-            f"cannot write {out}: {exc.strerror or exc}",
-            hint="check free disk space and that the folder is writable",
-        ) from exc
+    with cannot_write(out), Staged(out) as staged:
+        save_marked_png(fig, staged.path, dpi=fig.dpi, facecolor="white")
     return out
 
 

@@ -279,8 +279,8 @@ def test_output_refusals_name_the_path_not_a_command_option(
          f"e.g. {folder / 'dsg.json'}"),
         (lambda: m.export(folder, time=T, format="mcap"), f"{folder} is a folder",
          f"e.g. {folder / 'scene.mcap'}"),
-        (lambda: m.export(tmp_path / "s.ply", time=T, format="mcap"), "'s.ply'",
-         "e.g. scene.mcap"),
+        (lambda: m.export(tmp_path / "s.ply", time=T, format="mcap"),
+         "s.ply' disagree: .ply is the suffix of format ply", "name it s.mcap"),
         (lambda: m.save(folder), f"{folder}: it is a folder", f"e.g. {folder / 'office.aion'}"),
     ]
     for call, says, hint in cases:

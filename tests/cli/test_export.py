@@ -167,7 +167,14 @@ def test_a_scene_format_refuses_another_formats_file_name(
 ) -> None:
     result = run("export", office.map, "-o", tmp_path / name, "--time", AT, "--format", fmt)
     assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "written into a folder", repr(str(tmp_path / name)))
+    said = {".png": "format png", ".pcd": "format pcd", ".json": "format dsg", ".csv": "a table"}
+    suffix = Path(name).suffix
+    assert_one_line_error(
+        result.stderr,
+        f"the format {fmt} and the name {str(tmp_path / name)!r} disagree: {suffix} is the "
+        f"suffix of {said[suffix]}",
+    )
+    assert f"hint: name it {Path(name).stem}.{fmt}, or a folder (e.g. out/)" in result.stderr
     assert not (tmp_path / name).exists()
 
 
@@ -181,7 +188,9 @@ def test_an_output_named_as_a_table_is_refused_unless_it_is_a_folder(
     out = tmp_path / "flows.csv"
     result = run("export", office.map, "-o", out, "--time", AT)
     assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "written into a folder", repr(str(out)))
+    assert_one_line_error(
+        result.stderr, f"the format ply (the default) and the name {str(out)!r} disagree"
+    )
     assert "--format csv > FILE.csv" in result.stderr
     assert not out.exists()
     out.mkdir()

@@ -263,7 +263,7 @@ def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path:
     ("target", "fragment"),
     [
         ("folder", "is a folder"),
-        ("scene.ply", ".mcap"),
+        ("scene.ply", "the format mcap and the name"),
         ("blocker/scene.mcap", "cannot write"),
     ],
 )

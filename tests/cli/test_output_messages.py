@@ -1,0 +1,121 @@
+"""Messages of the output commands that had misled (a bad-input sweep): an unwritable
+``plan --export`` folder, a format its output's suffix disagrees with, an output named by a
+suffix alone, a step giving a unit twice."""
+
+from __future__ import annotations
+
+import errno
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from aion_cli.time_steps import Step, parse_step
+from aion_cli.timeparse import TimeFormatError
+from tests.cli.conftest import Office, assert_one_line_error, run
+
+AT = "2026-11-23T08:30"
+HOUR = 3600 * 10**9
+
+
+def test_an_unwritable_plan_export_folder_reads_as_png_does(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A folder that refuses new files (EPERM: immutable, a read-only mount) had made
+    ``--export`` print the bare "Operation not permitted: PATH" while ``--png`` said "cannot
+    write PATH: ...": both now say the latter, naming the file the user gave. The refusal is
+    simulated (the tests run as root, whom permissions do not stop) at the staging folder
+    made beside the output, as the kernel refuses it."""
+    real = tempfile.mkdtemp
+
+    def refuse(*args: Any, **kwargs: Any) -> str:
+        if str(kwargs.get("dir", "")).startswith(str(tmp_path)):
+            raise PermissionError(errno.EPERM, os.strerror(errno.EPERM), kwargs["dir"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    plan = ("plan", office.map, "--from", "p1", "--to", "p3", "-t", AT)
+    for option, name in (("--export", "path.ply"), ("--png", "path.png")):
+        result = run(*plan, option, tmp_path / name, "-q")
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(
+            result.stderr, f"cannot write {tmp_path / name}: {os.strerror(errno.EPERM)}"
+        )
+        assert not (tmp_path / name).exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "message", "hint"),
+    [
+        (["--format", "png", "-o", "x.mcap"],
+         "the format png and the name 'x.mcap' disagree: .mcap is the suffix of format mcap",
+         "name it x.png, or give the format mcap"),
+        (["--format", "mcap", "-o", "x.PNG"],
+         "the format mcap and the name 'x.PNG' disagree: .png is the suffix of format png",
+         "name it x.mcap, or give the format png"),
+        (["--format", "dsg", "-o", "x.ply"],
+         "the format dsg and the name 'x.ply' disagree: .ply is the suffix of format ply",
+         "name it x.json, or give the format ply"),
+        (["--format", "pcd", "-o", "x.sparkdsg"],
+         "the format pcd and the name 'x.sparkdsg' disagree: .sparkdsg is the suffix of "
+         "format dsg", "name it x.pcd, or a folder (e.g. out/), or give the format dsg"),
+        (["-o", "flows.csv"],
+         "the format ply (the default) and the name 'flows.csv' disagree: .csv is the suffix "
+         "of a table", "name it flows.ply, or a folder (e.g. out/); the table alone: aion "
+         "predict MAP --time T --format csv > FILE.csv"),
+    ],
+)  # fmt: skip
+def test_a_format_and_a_suffix_that_disagree_are_both_named(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[str],
+    message: str, hint: str,
+) -> None:
+    """``--format png -o x.mcap`` had said "-o writes a .png file", as if the format were
+    the user's only choice: now the format and the suffix are both named, with either fix.
+    Nothing is written."""
+    monkeypatch.chdir(tmp_path)
+    result = run("export", office.map, "-t", AT, *args, "-q")
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, message)
+    assert f"hint: {hint}" in result.stderr
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+@pytest.mark.parametrize("name", [".png", ".PLY", ".mcap", ".json", ".csv"])
+def test_an_output_named_by_a_suffix_alone_is_refused(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str
+) -> None:
+    """``-o .png`` had written a hidden folder of PLY frames named ``.png`` (a dot file has
+    no suffix): a name that is only a suffix is refused, nothing written; an existing folder
+    of that name is still written into (the user made it)."""
+    monkeypatch.chdir(tmp_path)
+    result = run("export", office.map, "-t", AT, "-o", name, "-q")
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, f"{name!r} is only a suffix: name the file before it")
+    assert f"hint: e.g. map{name.lower()}" in result.stderr
+    assert os.listdir(tmp_path) == []
+    (tmp_path / name).mkdir()
+    result = run("export", office.map, "-t", AT, "-o", name, "-q")
+    assert result.exit_code == 0, result.stderr
+    assert "scene.ply" in os.listdir(tmp_path / name)
+
+
+def test_a_step_giving_a_unit_twice_is_refused() -> None:
+    """``--step 1h1h`` had been read as 2 h: a unit given twice is surely a slip, refused
+    naming it ("m" and "min" are one unit); a step of several different units still adds."""
+    for text, unit in (("1h1h", "h"), ("1h30m1h", "h"), ("1m1min", "m"), ("1d 2D", "d")):
+        with pytest.raises(TimeFormatError) as caught:
+            parse_step(text)
+        assert caught.value.message == f"--step {text!r} gives the unit {unit!r} twice"
+    assert parse_step("1h30m") == Step(0, HOUR + 30 * 60 * 10**9)
+    assert parse_step("1d12h") == Step(1, 12 * HOUR)
+    assert parse_step("1w1d") == Step(8, 0)
+
+
+def test_a_step_giving_a_unit_twice_is_a_one_line_error(office: Office) -> None:
+    result = run(
+        "predict", office.map, "--from", AT, "--to", "2026-11-23T10:30", "--step", "1h1h"
+    )
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "--step '1h1h' gives the unit 'h' twice")
