@@ -48,7 +48,8 @@ def parse_step(step: str | float, option: str = "--step") -> Step:
     """A series step: text (``"1h"``, ``"30m"``, ``"600s"``, ``"1h30m"``, ``"1d"``, ``"1w"``, or
     ``"600"`` seconds) or seconds as a number (elapsed time), at least 1 s and at most the time
     range aion handles; :class:`TimeFormatError` otherwise, naming ``option`` as the user gave
-    it (``--step`` on the command line, ``step`` in the API, whose hint gives its form)."""
+    it (``--step`` on the command line, ``step`` in the API, whose hint gives its form). Each
+    unit at most once (``1h30m``, not ``1h1h``)."""
     days = Decimal(0)
     seconds = Decimal(0)
     api = not option.startswith("--")
@@ -69,6 +70,10 @@ def parse_step(step: str | float, option: str = "--step") -> Step:
             parts = RE_REL_PART.findall(token)
             if not parts or "".join(a + u for a, u in parts) != token.replace(" ", ""):
                 raise TimeFormatError(f"cannot read the step {step!r}", hint)
+            units = [UNITS_S.get(unit, unit) for _, unit in parts]  # "m" and "min" alike
+            if len(set(units)) < len(units):  # "1h1h" had been read as 2h: surely a slip
+                twice = next(p[1] for p, s in zip(parts, units, strict=True) if units.count(s) > 1)
+                raise TimeFormatError(f"{name} {step!r} gives the unit {twice!r} twice", hint)
             for amount, unit in parts:
                 if unit not in UNITS_S:
                     raise TimeFormatError(f"unknown unit {unit!r} in {name} {step!r}", "w d h m s")
