@@ -339,10 +339,10 @@ class Map(Generic[Report]):
         first, last = check.pair(leave, "leave", "earliest, latest")
         earliest = self._time(first, tz)[0]
         latest = self._time(last, tz, after_ns=earliest)[0]
-        if latest <= earliest:  # as --leave START..END: one departure is time=, not a span
+        if latest < earliest:  # as --leave START..END; (T, T) is the one departure T
             raise InputError(
-                "leave: the latest departure is not after the earliest",
-                hint="give leave=(earliest, latest) with latest later, or time= for one departure",
+                "leave: the latest departure is before the earliest",
+                hint="give leave=(earliest, latest) with latest later (or the same, for one)",
             )
         times = series_times(
             earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures", first

@@ -230,13 +230,14 @@ def series_of(
     return series_times(start, end, parse_step(step), zone, noun=noun, typed=t_from), zone
 
 
-def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
+def parse_span(text: str, zone: Zone, option: str, instant: bool = False) -> tuple[int, int]:
     """``START..END`` -> ``(start_ns, end_ns)`` for ``option`` (``--observed``, ``--leave``):
     each side is any form ``aion_cli.timeparse`` reads (ISO with or without zone, UNIX
     seconds, ...), in ``zone`` unless it names one; an end that is a clock alone, a day word
     or relative counts from the start (``"2026-11-23 08:00..10:00"`` is two hours, not a
     span to today's 10:00; ``"08:00..+2h"`` ends at 10:00); the end must be after the
-    start."""
+    start, or with ``instant`` (``--leave``, one departure as ``predict --from T --to T`` is
+    one time) the start itself, unless two different wall-clock times fell on one instant."""
     from aion_cli.errors import InputError
     from aion_cli.timeparse import FORMS_HINT, TimeFormatError
 
@@ -272,9 +273,12 @@ def parse_span(text: str, zone: Zone, option: str) -> tuple[int, int]:
             and not one_wall_clock(parts[0], parts[1], zone)
         )
         read += ": a clock change skips or repeats an hour there)" if changed else ")"
+        if instant and end == start and not changed:
+            return start, end
         raise InputError(
             f"{option} {text!r}: the end is not after the start{read}",
-            hint="give the span as START..END with END later than START",
+            hint="give the span as START..END with END later than START"
+            + (" (or the same time, for one departure)" if instant else ""),
         )
     return start, end
 

@@ -102,7 +102,7 @@ cost in the legend; a departure at an hour no log observed is titled as the tabl
     "--leave",
     metavar="START..END",
     help="Find the best departure between these times (instead of --time): plans every "
-    "--step and keeps the one of least temporal cost.",
+    "--step and keeps the one of least temporal cost (T..T: the one departure T).",
 )
 @click.option(
     "--step",

@@ -14,12 +14,13 @@ TABLE_ROWS = 48
 
 def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     """The departures of ``--leave START..END`` every ``--step`` (END included when it falls
-    on a step; a step in days or weeks counts calendar days in ``zone``; at most 1,000)."""
+    on a step; ``T..T`` is the one departure T; a step in days or weeks counts calendar days
+    in ``zone``; at most 1,000)."""
     from aion_cli.cli.common import parse_span
     from aion_cli.prediction_series import series_times
     from aion_cli.time_steps import parse_step
 
-    start, end = parse_span(text, zone, "--leave")
+    start, end = parse_span(text, zone, "--leave", instant=True)  # "T..T": one departure
     typed = text.split("..")[0]  # a daily series keeps its wall-clock time
     return series_times(start, end, parse_step(step), zone, noun="departures", typed=typed)
 

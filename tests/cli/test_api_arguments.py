@@ -185,7 +185,7 @@ def test_a_float_of_nanoseconds_is_not_taken_for_seconds() -> None:
         (lambda m: m.plan("p1", "p2", time=T, leave=(T, T)), "not both"),
         (lambda m: m.plan("p1", "p2", time=T, step="30m"), "step needs leave"),
         (lambda m: m.plan("p1", "p2", step=60.0), "step needs leave"),
-        (lambda m: m.plan("p1", "p2", leave=(T, T)), "latest departure is not after"),
+        (lambda m: m.plan("p1", "p2", leave=(T, "2026-01-12 08:00")), "latest departure is before"),
         (lambda m: m.holdout([], radius=1.0), "no log given"),
         (lambda m: m.holdout(None), "logs must be a path"),
         # before: TypeError ('NoneType' / 'int' object is not iterable), or bytes read as the
