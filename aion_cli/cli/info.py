@@ -84,6 +84,17 @@ aion (what aion export --format dsg recorded in it, else null).
 MAP_SUFFIX = ".aion"
 
 
+def _steps(report: dict[str, Any]) -> str:
+    """The steps of a scene ``aion export --format mcap`` wrote: one ``/aion/scene`` message
+    each, at the step's time."""
+    from aion_cli.formats.scene_mcap import SCENE_TOPIC
+
+    n = sum(t["count"] for t in report["topics"] if t["topic"] == SCENE_TOPIC)
+    if n == 1:
+        return f"one step, at {report['start']}"
+    return f"{n:,} steps from {report['start']} to {report['end']}"
+
+
 def _unused_pointer(report: dict[str, Any]) -> str:
     """What info's note on a log without a usable detection topic points to: the generic
     topics skipped for their names, a topic `--suggest-mapping` writes a mapping for
@@ -170,6 +181,11 @@ def command(
         return
     from aion_cli.formats.input_kind import input_kind
 
+    for p in logs:  # a folder named as a map is no rosbag2 bag to describe (without its yaml)
+        if p.is_dir() and p.suffix == MAP_SUFFIX and not (p / "metadata.yaml").is_file():
+            from aion_cli.mapquery import check_map_input
+
+            check_map_input(p)  # "is a folder, not a map file", and what a map file is
     # a map by its name or by its content (compact/build -o x.map writes a map of any name)
     maps = [p for p in logs if p.is_file() and (p.suffix == MAP_SUFFIX or input_kind(p) == "map")]
     if maps and len(maps) != len(logs):
@@ -299,7 +315,8 @@ def _print(report: dict[str, Any], zone: str = "UTC") -> None:
     held = sum(int(f["messages"]) for f in report["files"])
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
-        messages = f"{messages} readable of {held:,} (see the warnings)"
+        see = "see the warnings" if report["warnings"] else "the others: see the topics"
+        messages = f"{messages} readable of {held:,} ({see})"
     read = report.get("verified", {}).get("messages_read")
     if read is not None:
         gone = report["messages"] - read
@@ -363,7 +380,7 @@ def _print(report: dict[str, Any], zone: str = "UTC") -> None:
 
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
         elif all(is_scene_mcap(Path(f["path"])) for f in report["files"]):  # not a log
-            what = "it is a scene aion exported, to open in Foxglove or RViz"
+            what = f"it is a scene aion exported, to open in Foxglove or RViz: {_steps(report)}"
         elif not ros:  # no messages, or channels in other encodings only
             what = "it has no ROS topic"
             if report["warnings"]:

@@ -92,7 +92,26 @@ def describe(
     report["cannot_read"] = [f"{t.topic} ({t.msgtype})" for t in plan.ignored]
     if not plan.detections:
         report["mapping_example"] = example
+    _own_scene(report)
     return report
+
+
+def _own_scene(report: dict[str, Any]) -> None:
+    """An MCAP file ``aion export --format mcap`` wrote is a scene, not a log with a topic aion
+    cannot read: its ``/aion/scene`` (protobuf, for Foxglove) and ``/aion/markers`` (for RViz)
+    say what they hold rather than be warned of as "not ROS" or skipped as generic markers."""
+    from aion_cli.formats.scene_mcap import MARKER_TOPIC, SCENE_TOPIC, is_scene_mcap
+
+    if not report["files"] or not all(is_scene_mcap(Path(f["path"])) for f in report["files"]):
+        return
+    said = {
+        SCENE_TOPIC: "the scene at each step, for Foxglove (aion export --format mcap)",
+        MARKER_TOPIC: "the scene at each step as markers, for RViz (aion export --format mcap)",
+    }
+    for topic in report["topics"]:
+        topic["why"] = said.get(topic["topic"], topic["why"])
+    skipped = f": topic {SCENE_TOPIC} skipped ("
+    report["warnings"] = [w for w in report["warnings"] if skipped not in w]
 
 
 def _leave_out_strays(summary: Any, logset: Any) -> None:

@@ -230,7 +230,7 @@ def test_info_on_an_exported_scene_says_what_it_is(office: Office, tmp_path: Pat
     out = tmp_path / "scene.mcap"
     assert run("export", office.map, "--historical", "--format", "mcap", "-o", out).exit_code == 0
     said = " ".join(run("info", out).stderr.split())
-    assert "(it is a scene aion exported, to open in Foxglove or RViz)" in said, said
+    assert "(it is a scene aion exported, to open in Foxglove or RViz: one step, at " in said, said
     assert "--suggest-mapping" not in said, said
     log = " ".join(run("info", office.log).stderr.split())
     assert "scene aion exported" not in log

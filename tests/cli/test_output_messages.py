@@ -119,3 +119,77 @@ def test_a_step_giving_a_unit_twice_is_a_one_line_error(office: Office) -> None:
     )
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, "--step '1h1h' gives the unit 'h' twice")
+
+
+def test_a_leave_of_one_time_is_one_departure(office: Office) -> None:
+    """``--leave T..T`` had been refused ("the end is not after the start") while
+    ``predict --from T --to T`` is a series of one time: it is the one departure T, the plan
+    ``--time T`` makes; the API's ``leave=(T, T)`` likewise. An end before the start and two
+    wall-clock times a clock change makes one instant are still refused."""
+    import json
+
+    import aion_cli as aion
+
+    plan = ("plan", office.map, "--from", "p1", "--to", "p3", "--format", "json")
+    one = run(*plan, "--leave", f"{AT}..{AT}")
+    assert one.exit_code == 0, one.stderr
+    at = run(*plan, "--time", AT)
+    assert at.exit_code == 0, at.stderr
+    left, timed = json.loads(one.stdout), json.loads(at.stdout)
+    assert [d["depart"] for d in left["departures"]] == ["2026-11-23 08:30:00+00:00"]
+    assert left.pop("departures")[0]["best"] is True
+    assert left == timed
+    made = aion.Map.load(office.map).plan("p1", "p3", leave=(AT, AT))
+    assert made.cost == timed["temporal"]["cost"]
+    assert made.depart_ns == timed["depart_ns"]
+    assert [d["best"] for d in made.departures] == [True]
+    back = run(*plan, "--leave", f"{AT}..2026-11-23T08:29")
+    assert back.exit_code == 2
+    assert_one_line_error(back.stderr, "the end is not after the start")
+
+
+def test_info_describes_a_scene_aion_exported_without_warnings(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion info`` of an MCAP scene aion exported had warned that /aion/scene is "not
+    ROS" and skipped /aion/markers as generic markers: it says what each topic holds and how
+    many steps the scene has, from when to when, with no warning."""
+    import json
+
+    out = tmp_path / "scene.mcap"
+    series = ("--from", "2026-11-23T08:00", "--to", "2026-11-23T09:00", "--step", "30m")
+    assert run("export", office.map, *series, "-o", out, "-q").exit_code == 0
+    shown = run("info", out)
+    assert shown.exit_code == 0, shown.stderr
+    said = " ".join(shown.stderr.split())
+    assert "warning" not in said, said
+    assert (
+        "it is a scene aion exported, to open in Foxglove or RViz: 3 steps from "
+        "2026-11-23T08:00:00.000000Z to 2026-11-23T09:00:00.000000Z" in said
+    ), said
+    report = json.loads(run("info", out, "--format", "json").stdout)
+    assert report["warnings"] == []
+    why = {t["topic"]: t["why"] for t in report["topics"]}
+    assert why["/aion/scene"] == "the scene at each step, for Foxglove (aion export --format mcap)"
+    assert why["/aion/markers"].startswith("the scene at each step as markers, for RViz")
+    assert {t["topic"]: t["count"] for t in report["topics"]}["/aion/scene"] == 3
+
+
+def test_info_on_a_folder_named_as_a_map_says_it_is_a_folder(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion info dir.aion`` had said the folder is not a rosbag2 bag: it says the folder is
+    no map file, and what one is (or names the maps inside it)."""
+    import shutil
+
+    folder = tmp_path / "dir.aion"
+    folder.mkdir()
+    result = run("info", folder)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, f"{folder} is a folder, not a map file")
+    assert "rosbag2" not in result.stderr
+    assert "hint: give a map file (maps end in .aion" in result.stderr
+    shutil.copy(office.map, folder / "office.aion")
+    result = run("info", folder)
+    assert result.exit_code == 2
+    assert f"hint: give a map in it: {folder / 'office.aion'}" in result.stderr
