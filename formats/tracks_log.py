@@ -23,8 +23,6 @@ from aion_cli.engine.types import I64, DetectionBatch
 from aion_cli.errors import InputError
 from aion_cli.formats.track_csv import CHUNK_ROWS, track_chunks
 from aion_cli.formats.track_messages import (
-    orientation_velocity,
-    pose_array_message,
     pose_records,
     tracked_person_records,
     tracked_persons_bytes,
@@ -275,25 +273,14 @@ class _Messages:
         # the markers each message follows: a message's header seq counts them too
         after = np.maximum(np.searchsorted(self.marks, stamps, "left"), self.next_mark)
         seqs = self.seq + np.arange(len(stamps)) + (after - self.next_mark)
-        sec = int(stamps[-1]) // 1_000_000_000 if len(stamps) else 0
-        if self.kind == SPENCER_TRACKED or sec < 2**31:  # rosbags' Time: signed seconds
-            records = tracked_person_records(data, cdr, first_id) \
-                if self.kind == SPENCER_TRACKED else pose_records(data)
-            raws = tracked_persons_many(records, bounds, stamps, seqs, self.frame_id, cdr)
-        else:  # a PoseArray rosbags serializes, for the error it gives
-            quat_a, _, known_h, _ = orientation_velocity(data)  # no heading: unset (zero)
-            quat = np.where(known_h[:, None], quat_a, 0.0).tolist()
-            xyz = data.xyz.tolist()
-        for i, (t, mark_end) in enumerate(zip(stamps.tolist(), after.tolist(), strict=True)):
+        records = tracked_person_records(data, cdr, first_id) \
+            if self.kind == SPENCER_TRACKED else pose_records(data)
+        raws = tracked_persons_many(records, bounds, stamps, seqs, self.frame_id, cdr)
+        for t, mark_end in zip(stamps.tolist(), after.tolist(), strict=True):
             if mark_end > self.next_mark:
                 self.marks_before(t)
             self._before(t, detection=True)
-            if self.kind == SPENCER_TRACKED or sec < 2**31:
-                self.writer.write_raw(self.topic, self.kind, next(raws), t)
-            else:
-                a, b = bounds[i], bounds[i + 1]
-                msg = pose_array_message(t, xyz[a:b], quat[a:b], self.frame_id)
-                self.writer.write(self.topic, self.kind, msg, t)
+            self.writer.write_raw(self.topic, self.kind, next(raws), t)
             self.seq += 1
 
     def marks_before(self, t: int | None) -> None:
@@ -302,12 +289,9 @@ class _Messages:
         cdr = self.writer.ros_version == 2
         for m in self.marks[self.next_mark : end].tolist():
             self._before(m, detection=m == self.lone_graph_ns)
-            if self.kind == SPENCER_TRACKED:
-                empty = tracked_persons_bytes(_NO_RECORDS[cdr], m, self.frame_id, cdr, self.seq)
-                self.writer.write_raw(self.topic, self.kind, empty, m)
-            else:
-                self.writer.write(self.topic, self.kind, pose_array_message(
-                    m, [], [], self.frame_id), m)
+            none = _NO_RECORDS[cdr] if self.kind == SPENCER_TRACKED else _NO_POSES
+            empty = tracked_persons_bytes(none, m, self.frame_id, cdr, self.seq)
+            self.writer.write_raw(self.topic, self.kind, empty, m)
             self.seq += 1
         self.next_mark = max(self.next_mark, end)
 
@@ -341,6 +325,7 @@ class _Messages:
 
 _NO_RECORDS = {cdr: np.zeros(0, dtype=tracked_person_records(DetectionBatch.empty(), cdr).dtype)
                for cdr in (True, False)}
+_NO_POSES = pose_records(DetectionBatch.empty())
 
 
 def _write_tracks(
@@ -386,8 +371,15 @@ def _write_tracks(
     spans = merge_spans(observed)
     marks = observed_stamps(spans)
     _check_log_times(marks, "the observed spans")
+    def check(last_ns: int, what: str) -> None:
+        """The container's limit, and with a scene graph the earlier one of its DsgUpdate
+        messages, which rosbags serializes (its ``Time`` has signed seconds)."""
+        check_stamps(last_ns, container, what)
+        if graph_file is not None:
+            check_stamps(last_ns, container, f"{what} with a scene graph", serialized=True)
+
     if len(marks):
-        check_stamps(int(marks.max()), container, "the observed spans")
+        check(int(marks.max()), "the observed spans")
     payload, agents, graph_notes = (
         graph_payload(graph_file) if graph_file is not None else (None, 0, ())
     )
@@ -415,7 +407,7 @@ def _write_tracks(
                 nan = np.full(len(chunk), np.nan)
                 chunk = DetectionBatch(chunk.t_ns, chunk.xyz, nan, nan.copy(), chunk.track_id)
             far.count(chunk)
-            check_stamps(int(chunk.t_ns[-1]), container, "the tracks")
+            check(int(chunk.t_ns[-1]), "the tracks")
             t0 = int(chunk.t_ns[0]) if t0 is None else t0
             last_detection = int(chunk.t_ns[-1])
             track_ids.add(chunk.track_id)
