@@ -367,19 +367,22 @@ def _print(report: dict[str, Any], zone: str = "UTC") -> None:
         table.add_row(safe(t["topic"]), safe(t["type"]), f"{t['count']:,}", rate, role)
     print_table(table)
     use = report["will_use"]
+    from aion_cli.formats.scene_mcap import is_scene_mcap
+
+    # a scene aion exported is no log to build a map from: no note on building it with a graph
+    scene = bool(report["files"]) and all(is_scene_mcap(Path(f["path"])) for f in report["files"])
     if not use["detections"]:
         from aion_cli.topics import RAW_SENSOR_REASON
 
         ros = [t for t in report["topics"] if t["readable"]]  # the others are not read at all
         raw = ros and all(t.get("why", "").endswith(RAW_SENSOR_REASON) for t in ros)
         from aion_cli.formats.detections.registry import unreadable_kind
-        from aion_cli.formats.scene_mcap import is_scene_mcap
 
         if raw:
             from aion_cli.formats.detections.registry import RAW_SENSOR_HINT
 
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
-        elif all(is_scene_mcap(Path(f["path"])) for f in report["files"]):  # not a log
+        elif scene:  # not a log
             what = f"it is a scene aion exported, to open in Foxglove or RViz: {_steps(report)}"
         elif not ros:  # no messages, or channels in other encodings only
             what = "it has no ROS topic"
@@ -397,7 +400,7 @@ def _print(report: dict[str, Any], zone: str = "UTC") -> None:
             f"`aion build` cannot learn flows from this log ({safe(what)})",
             soft_wrap=True,
         )
-    if not use["scene_graph"]:
+    if not use["scene_graph"] and not scene:
         console().print(
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph",
             soft_wrap=True,

@@ -167,6 +167,11 @@ def test_info_describes_a_scene_aion_exported_without_warnings(
         "it is a scene aion exported, to open in Foxglove or RViz: 3 steps from "
         "2026-11-23T08:00:00.000000Z to 2026-11-23T09:00:00.000000Z" in said
     ), said
+    assert "no scene graph" not in said, said  # a scene, not a log to build from
+    tracks = tmp_path / "t.csv"  # a log without a graph keeps the note
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n1780000000000000000,1,0,0,0,0,1\n")
+    assert run("convert", tracks, "-o", tmp_path / "t.mcap", "-q").exit_code == 0
+    assert "note: no scene graph: build with" in run("info", tmp_path / "t.mcap").stderr
     report = json.loads(run("info", out, "--format", "json").stdout)
     assert report["warnings"] == []
     why = {t["topic"]: t["why"] for t in report["topics"]}
