@@ -89,7 +89,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
     required=True,
     type=AionPath(path_type=Path),
     help="Folder to write into (made if missing, in an existing folder); for png, mcap and "
-    "dsg the file, and a .ply / .pcd name writes the whole scene as that one file.",
+    "dsg the file, and a .ply / .pcd name writes the whole scene as that one file. With "
+    "--format, a suffix naming another format is refused (--format png -o x.mcap).",
 )
 @click.option(
     "-t",

@@ -82,6 +82,15 @@ def test_a_format_and_a_suffix_that_disagree_are_both_named(
     assert sorted(os.listdir(tmp_path)) == []
 
 
+def test_export_help_says_the_suffix_must_match_the_format() -> None:
+    """The README said an ``-o`` whose suffix names another format is refused, ``export
+    --help`` did not: its -o help says so, with the example the test above refuses."""
+    said = " ".join(run("export", "--help").stdout.split())
+    output = said.split("-o, --output PATH", 1)[1].split(" -t, --time", 1)[0]
+    assert "With --format, a suffix naming another format is refused (--format png -o " \
+        "x.mcap)." in output, output
+
+
 @pytest.mark.parametrize("name", [".png", ".PLY", ".mcap", ".json", ".csv"])
 def test_an_output_named_by_a_suffix_alone_is_refused(
     office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str
