@@ -21,11 +21,11 @@ import re
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, Any
 
 from aion_cli.errors import LogFormatError
+from aion_cli.formats.mcap_records import iso
 from aion_cli.listing import first_few
 
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
@@ -338,13 +338,6 @@ def uncompressed_files_note(folder: Path) -> str | None:
     )
 
 
-def _when(t_ns: int) -> str:
-    try:
-        return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-    except (OverflowError, OSError, ValueError):
-        return f"{t_ns} ns"
-
-
 def metadata_disagreements(
     figures: MetadataFigures,
     start_ns: int,
@@ -360,8 +353,8 @@ def metadata_disagreements(
     out = []
     start, duration, count = figures.start_ns, figures.duration_ns, figures.message_count
     if start is not None and total and start != start_ns:
-        what = "impossible: before 1970" if start < 0 else _when(start)
-        out.append(f"starting_time {start} ns ({what}; the files start at {_when(start_ns)})")
+        what = "impossible: before 1970" if start < 0 else iso(start)
+        out.append(f"starting_time {start} ns ({what}; the files start at {iso(start_ns)})")
     if duration is not None and total and duration != last_ns - start_ns:
         what = "impossible, " if duration < 0 else ""
         out.append(f"duration {duration} ns ({what}the files: {last_ns - start_ns} ns)")

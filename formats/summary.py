@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any, Literal
 
+from aion_cli.formats.mcap_records import iso
 from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
@@ -186,8 +186,8 @@ class LogSummary:
             "compression": self.compression,
             "start_ns": self.start_ns if held else None,
             "end_ns": self.end_ns if held else None,
-            "start": _iso(self.start_ns) if held else None,
-            "end": _iso(self.end_ns) if held else None,
+            "start": iso(self.start_ns) if held else None,
+            "end": iso(self.end_ns) if held else None,
             "duration_s": round(self.duration_s, 6),
             "span_s": round(self.span_s, 6),
             "recorded_s": round(self.recorded_s, 6),
@@ -198,11 +198,6 @@ class LogSummary:
             "dsg_versions": {k: list(v) for k, v in self.dsg_versions.items()},
             "warnings": list(self.warnings),
         }
-
-
-def _iso(t_ns: int) -> str:
-    """UTC ISO 8601 time with microseconds (``2023-11-14T22:13:20.000000Z``)."""
-    return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def summarize(logset: LogSet, detections: Iterable[str] | None = None) -> LogSummary:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from typing import Literal
 
 import numpy as np
@@ -26,6 +25,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.spatial_hash import BIAS
 from aion_cli.engine.types import F64, DetectionBatch
 from aion_cli.errors import InputError
+from aion_cli.formats.mcap_records import utc_of
 
 Layout = Literal[
     "canonical", "atc", "thor", "eth", "ucy", "lincoln", "edinburgh", "thor-magni"
@@ -118,7 +118,9 @@ def sessions(t_ns: npt.ArrayLike, gap_ns: int) -> list[tuple[int, int]]:
 
 
 def _utc(t_ns: int) -> str:
-    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y-%m-%d %H:%M:%S")
+    """``2026-01-05 08:00:00``: a UNIX-ns time cut to the second (not rounded up to the next
+    through float seconds: :func:`formats.mcap_records.utc_of`)."""
+    return utc_of(t_ns).strftime("%Y-%m-%d %H:%M:%S")
 
 
 def repeated_rows(batch: DetectionBatch) -> tuple[npt.NDArray[np.bool_], int]:

@@ -199,7 +199,10 @@ def test_convert_and_build_read_one_observed_span_alike(
     assert result.exit_code == 0, result.stderr
     info = json.loads(run("info", log, "--format", "json").stdout)
     assert info["start"] == "2026-01-05T08:00:00.000000Z"
-    assert info["end"].startswith("2026-01-05T10:00:00")
+    # the span's last marker is 1 ns before its end: 09:59:59.999999999, cut to the microsecond
+    # (it read 10:00:00.000000 through float seconds, rounded up)
+    assert info["end_ns"] == start + 3600 * 10**9 - 1
+    assert info["end"] == "2026-01-05T09:59:59.999999Z"
 
 
 def test_every_format_option_takes_any_case() -> None:
