@@ -131,11 +131,11 @@ def check_out_dir(out_dir: Path) -> None:
 
 
 def frame_name(t_ns: int | None) -> str:
-    from datetime import UTC, datetime
+    from aion_cli.formats.mcap_records import utc_of  # cut to the second, not float-rounded
 
     if t_ns is None:
         return "historical"
-    return datetime.fromtimestamp(t_ns / 1e9, UTC).strftime("%Y%m%dT%H%M%SZ")
+    return utc_of(t_ns).strftime("%Y%m%dT%H%M%SZ")
 
 
 def _export_one(

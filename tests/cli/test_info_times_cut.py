@@ -89,3 +89,14 @@ def test_a_track_time_before_1970_is_named_before_1970() -> None:
 
     with pytest.raises(LogTimeError, match=r"\(1969-12-31 23:59:59 UTC\)"):
         _check_log_times(np.asarray([-100, 5], dtype=np.int64), "rows")
+
+
+def test_an_export_series_frame_is_named_by_its_second_cut() -> None:
+    """``aion export --from --to --step`` names each time's folder by its UTC second; through
+    float seconds a time 1 ns before the new year was named after 2024-01-01 00:00:00."""
+    from aion_cli.exports import frame_name
+
+    assert frame_name(NEW_YEAR_NS - 1) == "20231231T235959Z"
+    assert frame_name(NEW_YEAR_NS) == "20240101T000000Z"
+    assert frame_name(NEW_YEAR_NS + 10**9 - 1) == "20240101T000000Z"
+    assert frame_name(None) == "historical"
