@@ -56,7 +56,7 @@ def write_build(
     """Write ``report.output`` (the caller holds its lock) and fill the report's counts and
     size. ``map_frame``: the frame the positions are in, recorded in the manifest;
     ``declared``: the ``--observed`` spans (a note counts those left outside the logs' time)."""
-    from aion_cli.build_report import far_from_graph_of
+    from aion_cli.build_plausibility import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import (
         DECLARED,

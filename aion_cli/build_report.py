@@ -5,7 +5,9 @@ counts, warnings and errors.
 Why a module of its own: the CLI (``aion build``, its summary and ``--format json``) and the
 Python API read the report without the build's machinery, and the rules that decide when a
 build's losses are a warning and when they are its error (:func:`check_decoding`,
-:func:`check_usable`, :data:`LOSS_WARN_SHARE`) live beside the fields they fill.
+:func:`check_usable`, :data:`LOSS_WARN_SHARE`) live beside the fields they fill. The warnings
+that judge the map as a whole (detections far from the scene graph, faster than people) are
+:mod:`aion_cli.build_plausibility`'s.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from aion_cli.build_plausibility import fast_people_warning
 from aion_cli.detection_feed import HEADING_SOURCES
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
@@ -298,77 +301,6 @@ def record_detections(
     report.stamp_counts = dict(c.topics)
     report.warnings.extend(stamp_warnings(c.topics))
     return c
-
-
-#: share of a map's detections on hash cells, with a scene graph, above which the graph and
-#: the detections probably do not share a frame (:func:`far_from_graph_warning`)
-FAR_FROM_GRAPH_SHARE = 0.95
-
-
-def far_from_graph_warning(
-    on_cells: float, on_nodes: float, places: int, places_with_flow: int
-) -> str | None:
-    """A warning when a map with a scene graph holds nearly all of its detections on hash
-    cells, away from every place (``on_cells`` / ``on_nodes``: detections on each, ``places``
-    the graph's places, ``places_with_flow`` those holding any): the detections and the graph
-    are most likely in different frames or units (a graph file of another building, a
-    ``--map-frame`` that is not the graph's). None when the graph holds a fair share, or
-    there is no graph or no detection."""
-    total = on_cells + on_nodes
-    if places == 0 or total <= 0 or on_cells / total < FAR_FROM_GRAPH_SHARE:
-        return None
-    return (
-        f"{on_cells:,.0f} of the {total:,.0f} detections lie away from every place of the "
-        f"scene graph (on hash cells; {places_with_flow:,} of its {places:,} places hold any): are "
-        "the detections and the graph in the same frame and units? (--map-frame, --graph; "
-        "aion predict MAP --layer cells shows where the detections are)"
-    )
-
-
-def far_from_graph_of(state: Any, stats: dict[str, int]) -> str | None:
-    """:func:`far_from_graph_warning` of a map state about to be written (``stats``: its
-    :func:`aion_cli.mapquery.state_counts`): what ``build`` warns and ``merge`` notes."""
-    from aion_cli.engine.ownership import stable_nodes
-    from aion_cli.mapquery import detections_by_kind
-
-    on_cells, on_nodes = detections_by_kind(state)
-    warning = far_from_graph_warning(on_cells, on_nodes, stats["nodes"], stats["nodes_with_flow"])
-    end = state.log_time_ns
-    if warning is not None and end is not None and not stable_nodes(state, end).any():
-        # not the frame: no place was stable long enough to take over its cells
-        stability = state.config.stability_s
-        return (
-            f"{on_cells:,.0f} of the {on_cells + on_nodes:,.0f} detections stay on hash cells: "
-            f"none of the scene graph's {stats['nodes']:,} places had been stable for "
-            f"{stability:g} s of log time when the log ended (a place takes over its cells "
-            "then; stability_s in --config), so the map's flows are on its cells"
-        )
-    return warning
-
-
-#: the mean speed of a build's detections above which people cannot be walking (m/s; people
-#: walk at about 1.4 m/s, and even a running crowd's mean stays below this)
-PLAUSIBLE_SPEED_M_S = 3.0
-#: how :func:`fast_people_warning`'s line begins (a parallel build writes it once, from sums)
-FAST_PEOPLE_WARNING = "people move at "
-
-
-def fast_people_warning(report: BuildReport) -> str | None:
-    """A warning when the build's detections move faster on average than people can
-    (:data:`PLAUSIBLE_SPEED_M_S`): their times or positions are not what they seem, and the
-    map's speeds and counts per window with them. Real cases: a bag re-recorded faster than
-    real time whose messages carry no header stamps (log times used), positions in pixels or
-    millimetres. None when they are plausible or have no speed."""
-    mean = report.mean_speed()
-    if mean is None or mean <= PLAUSIBLE_SPEED_M_S:
-        return None
-    return (
-        f"{FAST_PEOPLE_WARNING}{mean:,.1f} m/s on average ({report.speed_n:,} detections "
-        "with a speed; people walk at about 1.4 m/s): the detections' times or positions are "
-        "probably not what they seem (a log recorded faster than real time whose messages' "
-        "log times stand in for missing header stamps, positions in pixels or millimetres), "
-        "and the map's speeds and flows per window are not people's"
-    )
 
 
 def check_decoding(report: BuildReport, counts: DetectionCounts, plan: TopicPlan) -> None:

@@ -400,7 +400,7 @@ def _write(
 ) -> None:
     """The merged map file (atomic; the caller holds the output's lock) and the report's
     figures."""
-    from aion_cli.build_report import far_from_graph_of
+    from aion_cli.build_plausibility import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import map_observation_text
     from aion_cli.forecast_notes import observed_hours

@@ -14,7 +14,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
+from aion_cli.build_plausibility import FAST_PEOPLE_WARNING, fast_people_warning
+from aion_cli.build_report import BuildReport
 from aion_cli.detection_counts import TopicCounts
 from aion_cli.errors import MessageDecodeError
 from aion_cli.fixed_sensor import (

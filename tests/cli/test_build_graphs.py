@@ -73,7 +73,7 @@ def test_a_graph_in_another_frame_is_warned_about(tmp_path: Path) -> None:
 
 
 def test_a_far_graph_warning_needs_nearly_every_detection_off_the_places() -> None:
-    from aion_cli.build_report import far_from_graph_warning
+    from aion_cli.build_plausibility import far_from_graph_warning
 
     assert far_from_graph_warning(94.0, 6.0, 10, 3) is None  # 94 %: a graph of part of a site
     assert far_from_graph_warning(95.0, 5.0, 10, 1) is not None

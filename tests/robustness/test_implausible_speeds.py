@@ -1,6 +1,6 @@
 """Detections faster than people: a build warns when its detections' mean speed is beyond what
-people walk (``build_report.PLAUSIBLE_SPEED_M_S``), because their times or positions cannot be
-what they seem — the real case is a leg-tracker bag re-recorded in half a second whose
+people walk (``build_plausibility.PLAUSIBLE_SPEED_M_S``), because their times or positions
+cannot be what they seem — the real case is a leg-tracker bag re-recorded in half a second whose
 PoseArrays carry no header stamps (``../shared/data/logs/leg_tracker``). The walker here moves
 0.5 m per message and carries no velocity, so its speeds come from its track: at 2 messages a
 second it walks 1 m/s; with the same messages 10 ms apart it "moves" 50 m/s.
@@ -13,7 +13,8 @@ from typing import Any
 
 import pytest
 
-from aion_cli.build_report import FAST_PEOPLE_WARNING, BuildReport, fast_people_warning
+from aion_cli.build_plausibility import FAST_PEOPLE_WARNING, fast_people_warning
+from aion_cli.build_report import BuildReport
 from aion_cli.shard_reports import combine_reports
 from tests.robustness.conftest import T0, Message, S, build_json, person, write_log
 from tests.shared_data import real
