@@ -105,7 +105,7 @@ class BuildOptions:
     observed_typed: tuple[tuple[str, tuple[int, int]], ...] = ()
     #: internal (a parallel build's shards): the first and last window the ``--observed``
     #: spans may fill beyond the shard's own logs, its share of the time between the groups
-    #: of logs (:func:`aion_cli.fixed_sensor.declared_windows`); None: the logs' own
+    #: of logs (:func:`aion_cli.observed_spans.declared_windows`); None: the logs' own
     observed_fill: tuple[int | None, int | None] = (None, None)
 
     def __post_init__(self) -> None:

@@ -58,15 +58,10 @@ def write_build(
     ``declared``: the ``--observed`` spans (a note counts those left outside the logs' time)."""
     from aion_cli.build_plausibility import far_from_graph_of
     from aion_cli.engine.family_summary import family_summary
-    from aion_cli.fixed_sensor import (
-        DECLARED,
-        map_observation_text,
-        outside_logs_note,
-        share_text,
-        silent_advice,
-    )
+    from aion_cli.fixed_sensor import DECLARED, map_observation_text, share_text, silent_advice
     from aion_cli.forecast_notes import observed_hours
     from aion_cli.formats.mapfile import write_map
+    from aion_cli.observed_spans import outside_logs_note
 
     arrays, meta = state.to_arrays(lazy=True)
     stats = state_counts(state)

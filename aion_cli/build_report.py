@@ -128,7 +128,7 @@ class BuildReport:
     #: first to its last recorded window (``fixed_sensor.recording_window_count`` adds them up)
     recording_spans: list[tuple[str, int, int]] = field(default_factory=list)
     #: --observed: the windows without a message its spans added (None without --observed;
-    #: a parallel build adds its shards' up into one note, ``fixed_sensor.observed_note``)
+    #: a parallel build adds its shards' up into one note, ``observed_spans.observed_note``)
     observed_added: int | None = None
     #: --observed: where the windows its spans added begin, when before the first message
     declared_start_ns: int | None = None

@@ -29,9 +29,9 @@ from aion_cli.fixed_sensor_text import (
     fixed_sensor_text,
     share_text,
     silent_advice,
-    time_text,
 )
 from aion_cli.log_times import TimeCheck, iso
+from aion_cli.observed_spans import declared_windows, observed_note
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
@@ -42,13 +42,11 @@ __all__ = [
     "FIXED_SENSOR_OVER",
     "SILENT_HINT",
     "UNPOSED_NOTE",
-    "declared_windows",
     "fixed_sensor_share",
     "fixed_sensor_summary",
     "fixed_sensor_text",
     "fixed_sensor_windows",
     "map_observation_text",
-    "outside_logs_note",
     "recording_bounds",
     "recording_window_count",
     "share_text",
@@ -81,12 +79,13 @@ def fixed_sensor_windows(
     last, the time between the logs included; ``fill`` widens that range (a new map's first
     declared window, the window after a continued map's reach:
     :func:`aion_cli.log_observed.fill_start`; a parallel shard's share of the time between
-    the logs: :func:`declared_windows`). A window a log starts or ends inside counts for
-    the part of it recorded (:func:`recording_bounds`; ``ModelConfig.exposure``), so a
-    four-minute log is four minutes of watching, not ten; a window without a message counts
-    for the part the declared spans cover (a span to 12:02: 0.2 of 12:00-12:10), also one
-    only marker messages hold (``marks``: :func:`~aion_cli.log_observed.marker_times`). Sets
-    the Mapper's windows, notes the windows left out, and returns the observation's text."""
+    the logs: :func:`aion_cli.observed_spans.declared_windows`). A window a log starts or
+    ends inside counts for the part of it recorded (:func:`recording_bounds`;
+    ``ModelConfig.exposure``), so a four-minute log is four minutes of watching, not ten; a
+    window without a message counts for the part the declared spans cover (a span to 12:02:
+    0.2 of 12:00-12:10), also one only marker messages hold (``marks``:
+    :func:`~aion_cli.log_observed.marker_times`). Sets the Mapper's windows, notes the windows
+    left out, and returns the observation's text."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
     from aion_cli.log_observed import declared_end_ns, declared_start_ns
@@ -340,51 +339,6 @@ def _message_runs(times: I64, windows: I64, delta: int, step: int) -> tuple[I64,
     return start.astype(np.int64), end.astype(np.int64)
 
 
-OBSERVED_NOTE = "--observed: "
-"""How :func:`observed_note` starts (a parallel build's parent replaces its shards' notes)."""
-
-
-def observed_note(added: int, delta: int) -> str:
-    """The note of the windows without a message that ``--observed`` spans made observed
-    (``added`` windows of ``delta`` ns)."""
-    return (
-        f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({time_text(added * delta)}), the time between the logs included"
-    )
-
-
-def outside_logs_note(
-    declared: tuple[tuple[int, int], ...],
-    spans: list[tuple[str, int, int]],
-    delta: int,
-    start: int | None = None,
-    then: str = "a log that continues the map fills the time since the map's last message",
-    end: int | None = None,
-) -> str | None:
-    """The note for the windows of the ``--observed`` spans ``[lo, hi)`` that lie outside the
-    logs' time (``spans``: each file's first and last window, :func:`_file_spans`; ``start``,
-    ``end``: the first and last window the spans may fill, ``log_observed.fill_start`` and
-    ``fill_end``), which stay unknown (:func:`declared_windows`; ``then``: what follows for
-    the command). None when there are none."""
-    if not declared or not spans:
-        return None
-    total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
-    filled = declared_windows(declared, spans, delta, (start, end))
-    n = total - filled.size
-    if n == 0:
-        return None
-    last = _fill_range(spans, (start, end))[1]
-    after = sum(b - max(a, last + 1) + 1 for a, b in _window_runs(declared, delta) if b > last)
-    where = (
-        "after the last log's last message" if after == n else "outside the logs' time "
-        "(before the first log's first message or after the last log's last)"
-    )
-    return (
-        f"{OBSERVED_NOTE}{n:,} declared window(s) ({time_text(n * delta)}) lie {where} and "
-        f"stay unknown, not empty: {then}"
-    )
-
-
 def _file_spans(logset: Any, times: TimeCheck, delta: int) -> list[tuple[str, int, int]]:
     """Each log file's own time as (path, first, last window; a rosbag2 bag split into
     storage files is one): its first to its last
@@ -413,58 +367,6 @@ def recording_window_count(spans: list[tuple[str, int, int]], after: int | None 
             count += last - start + 1
         reach = last if reach is None else max(reach, last)
     return count
-
-
-def declared_windows(
-    declared: tuple[tuple[int, int], ...],
-    spans: list[tuple[str, int, int]],
-    delta: int,
-    fill: tuple[int | None, int | None] = (None, None),
-) -> I64:
-    """The windows of ``delta`` ns that the spans ``[lo, hi)`` overlap within the logs' time:
-    from the first file's first recorded window to the last file's last (``spans``, each
-    file's own first and last window inside the runs of the topics aion uses, so a stray
-    message adds no decades of empty windows), the time between two files included (a
-    tracker recorded one log a day keeps its declared nights). ``fill`` widens the range:
-    its first window where a continued map's logs stopped (so building A and B at once equals
-    building A and continuing with B), and a parallel shard's first and last window, each
-    shard taking its share of the time between the groups of logs (so the shards together
-    fill what one pass fills)."""
-    if not spans:
-        return np.zeros(0, np.int64)
-    first, last = _fill_range(spans, fill)
-    parts = []
-    for a, b in _window_runs(declared, delta):
-        a, b = max(a, first), min(b, last)
-        if b >= a:
-            parts.append(np.arange(a, b + 1, dtype=np.int64))
-    if not parts:
-        return np.zeros(0, np.int64)
-    out: I64 = np.concatenate(parts)  # the runs are disjoint and sorted: so are their windows
-    return out
-
-
-def _fill_range(
-    spans: list[tuple[str, int, int]], fill: tuple[int | None, int | None]
-) -> tuple[int, int]:
-    """The first and last window the declared spans may fill: the files' first to their
-    last, widened by ``fill``."""
-    first = min(f for _, f, _ in spans)
-    last = max(b for _, _, b in spans)
-    lo, hi = fill
-    return (first if lo is None else min(first, lo)), (last if hi is None else max(last, hi))
-
-
-def _window_runs(declared: tuple[tuple[int, int], ...], delta: int) -> list[tuple[int, int]]:
-    """The spans ``[lo, hi)`` as disjoint runs of whole windows (first, last), sorted: the
-    windows each span overlaps, overlapping or touching runs joined (as half-open window
-    ranges, by the engine's span merge)."""
-    from aion_cli.engine.observation import merged_spans
-
-    lo = np.array([int(a) for a, _ in declared], np.int64) // delta
-    hi = -(-np.array([int(b) for _, b in declared], np.int64) // delta)
-    starts, ends = merged_spans(lo, hi)
-    return [(int(a), int(b) - 1) for a, b in zip(starts, ends, strict=True)]
 
 
 def map_observation_text(texts: list[str], observation: ObservationSource, delta: int) -> str:

@@ -42,7 +42,7 @@ def fill_declared_gap(
     window lies between them. ``early`` None: the part is the merge's first map, and the
     spans' windows before its logs count from the spans' start, as one build of its logs as a
     new map counts them (:func:`aion_cli.log_observed.fill_start`)."""
-    from aion_cli.fixed_sensor import declared_windows
+    from aion_cli.observed_spans import declared_windows
 
     delta = acc.window_ns
     first = part.counts.get("recording_first")
@@ -79,8 +79,8 @@ def fill_declared_tail(
     ends at its last instant), None when there is none (the part stores no spans, its logs'
     recording windows are unknown, or the spans end within its logs)."""
     from aion_cli.engine.mapper import Mapper
-    from aion_cli.fixed_sensor import declared_windows
     from aion_cli.log_observed import declared_end_ns, fill_end
+    from aion_cli.observed_spans import declared_windows
 
     reach, delta = last.recording_reach, acc.window_ns
     end = fill_end(spans, delta, False)

@@ -21,10 +21,8 @@ from aion_cli.errors import MessageDecodeError
 from aion_cli.fixed_sensor import (
     DECLARED,
     FIXED_SENSOR_OVER,
-    OBSERVED_NOTE,
     UNPOSED_NOTE,
     fixed_sensor_text,
-    observed_note,
     unposed_note,
 )
 from aion_cli.graph_feed import (
@@ -33,6 +31,7 @@ from aion_cli.graph_feed import (
     NO_GRAPH_NOTES,
     graph_counts_note,
 )
+from aion_cli.observed_spans import OBSERVED_NOTE, observed_note
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 from aion_cli.tf_feed import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 

@@ -314,7 +314,7 @@ def observe(
     per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
     spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
     a warning: its poses say what it saw; ``fill`` widens the time they may fill:
-    :func:`~aion_cli.fixed_sensor.declared_windows`; ``marks``: the times of the messages
+    :func:`~aion_cli.observed_spans.declared_windows`; ``marks``: the times of the messages
     that only mark the spans the logs record, :func:`aion_cli.log_observed.marker_times`).
     ``detection_windows``: the windows holding a message of a detection topic; the robot's
     windows without one are counted in a note (:func:`silent_note`). Beside a robot

@@ -1,4 +1,4 @@
-"""``--observed`` spans as runs of whole windows (``fixed_sensor._window_runs``, through the
+"""``--observed`` spans as runs of whole windows (``observed_spans._window_runs``, through the
 engine's span merge): the runs cover exactly the windows some span overlaps, counted by
 brute force, and are sorted, disjoint and never touching."""
 
@@ -9,7 +9,7 @@ from itertools import pairwise
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aion_cli.fixed_sensor import _window_runs
+from aion_cli.observed_spans import _window_runs
 
 DELTA = 600
 
