@@ -40,7 +40,8 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 (:mod:`aion_cli.parallel_build`); with ``--part`` the closed days are held for ``aion merge``.
 
 :func:`aion_cli.mapquery.load_map` reads a map back for ``predict``, ``plan`` and ``export``;
-:mod:`aion_cli.topics` and :mod:`aion_cli.provenance` hold the remaining steps' parts.
+:mod:`aion_cli.topics` and :mod:`aion_cli.provenance` hold the remaining steps' parts, and
+:mod:`aion_cli.continued_map` the rules for a continued map (``--map``) and ``--part``.
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ from aion_cli.build_options import (
 from aion_cli.build_output import write_build
 from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
 from aion_cli.build_stream import StreamStep
+from aion_cli.continued_map import check_part, frame_warning, load_continued
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import DetectionCounts, log_adapters
 from aion_cli.engine.config import ModelConfig
@@ -74,7 +76,7 @@ from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
 from aion_cli.log_times import TopicTimes, overlap_warnings
 from aion_cli.manifest import InputLog, Manifest
-from aion_cli.mapquery import LoadedMap, load_map
+from aion_cli.mapquery import LoadedMap
 from aion_cli.provenance import DistinctLogs, distinct_logs
 from aion_cli.stamp_warnings import sim_time_warning
 from aion_cli.tf_feed import (
@@ -201,19 +203,15 @@ class _Build(StreamStep):
     def _run(self) -> BuildReport:
         opts = self.opts
         if opts.continue_from is not None:
-            self.previous = self._load_previous(opts.continue_from)
+            self.previous = load_continued(opts.continue_from, opts, self.report.notes)
             self.previous_manifest = Manifest.from_dict(self.previous.manifest)
             self.report.continued = True
             self._map_open = self.previous.state.open_window
-            recorded = self.previous_manifest.map_frame
-            if recorded is not None and recorded != opts.map_frame:  # --map-frame said so
-                self.report.warnings.append(
-                    f"{opts.continue_from.name} holds positions in frame {recorded!r}, and "
-                    f"--map-frame reads these logs into {opts.map_frame!r}: their positions "
-                    "join the map's as if both were one frame (and the map then records "
-                    f"{opts.map_frame!r}); unless they are, give the logs the TF to "
-                    f"{recorded!r} instead, or build them into a map of their own"
-                )
+            warning = frame_warning(  # --map-frame said so
+                opts.continue_from.name, self.previous_manifest.map_frame, opts.map_frame
+            )
+            if warning is not None:
+                self.report.warnings.append(warning)
         elif opts.lineage != "auto":
             self.report.notes.append(f"--lineage {opts.lineage} ignored: no --map to continue")
         config = self.config()
@@ -227,29 +225,6 @@ class _Build(StreamStep):
         self._write(state, config, self._inputs(hashes))
         return self.report
 
-    def _load_previous(self, path: Path) -> LoadedMap:
-        """The continued map, on the FreMEn clock it goes on with
-        (:func:`aion_cli.merge_config.continued_config`)."""
-        from aion_cli.build_lineage import continue_on_graph
-        from aion_cli.merge_config import adopt_config, continued_config
-
-        loaded = load_map(path, writable=True)
-        opts = self.opts  # another session's graph file: refused, or the map released
-        continue_on_graph(
-            loaded, path.name, opts.graph_file, opts.nav_layer, opts.lineage, self.report.notes
-        )
-        config = continued_config(loaded.config, Manifest.from_dict(loaded.manifest))
-        if config != loaded.config:
-            adopt_config(loaded.state, config)
-            note = (
-                f"{path.name} was built before FreMEn followed daylight saving; its time held "
-                f"none in {config.timezone}, so it goes on with FreMEn on the local clock "
-                "(exactly: its sums are the same on either clock)"
-            )
-            if note not in self.report.notes:
-                self.report.notes.append(note)
-        return loaded
-
     def _learn_state(self, config: ModelConfig) -> MapState:
         """The map state of the logs: in this process, in workers, or a part map."""
         opts = self.opts
@@ -259,7 +234,7 @@ class _Build(StreamStep):
                 f"{out.name} existed and is replaced (use --map {out.name} to extend a map)"
             )
         if opts.part:
-            self._check_part()
+            check_part(self.previous, opts, self.report.notes)
             state = self.learn(config).state
             self.report.notes.append(
                 f"a part map: its {len(state.deferred.days) if state.deferred else 0} closed "
@@ -289,7 +264,9 @@ class _Build(StreamStep):
             self.graphs = self._graph_feed()
             self.counts = DetectionCounts()
             if self.previous is not None and self.opts.continue_from is not None:
-                self.previous = self._load_previous(self.opts.continue_from)
+                self.previous = load_continued(
+                    self.opts.continue_from, self.opts, self.report.notes
+                )
             return self._learn(config)
 
     def _learn(self, config: ModelConfig) -> Mapper:
@@ -337,16 +314,6 @@ class _Build(StreamStep):
             # unusual input is a warning, shown with -q and under "warnings" in JSON
             self.report.warnings.extend(w for w in logset.warnings if w not in self.report.warnings)
         return mapper
-
-    def _check_part(self) -> None:
-        """``--part`` starts a part map or continues one, never an ordinary map."""
-        if self.previous is not None and self.previous.state.deferred is None:
-            raise InputError(
-                "--part cannot continue an ordinary map",
-                hint="build the part into a new file (aion build LOG --part -o PART.aion)",
-            )
-        if self.opts.workers not in (0, 1) or self.opts.scheduler is not None:
-            self.report.notes.append("--part builds in this process (--workers ignored)")
 
     def _mapper(self, config: ModelConfig) -> Mapper:
         """The Mapper the logs go into: the continued map's, a shard's, or a new one."""
