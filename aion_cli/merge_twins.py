@@ -23,8 +23,11 @@ if TYPE_CHECKING:
     from aion_cli.mapquery import MapHead
 
 #: the members that hold a map's entries (cells and nodes, their counts, speed and heading
-#: sums; the open window's included): equal in two maps, they hold the same detections
-ENTRY_PREFIX = "entry_"
+#: sums; the open window's included) and the times of their detections (the counts' Fourier
+#: sums and hour-of-week profile, absorbed and pending): equal in two maps, they hold the same
+#: detections at the same times. The entries alone are not enough: a log of the same people a
+#: day later, built with the same declared span, holds the same entries at other times
+TWIN_PREFIXES = ("entry_", "temporal_cnt_", "pending_cnt_")
 
 
 class TwinInput(Protocol):
@@ -60,7 +63,7 @@ def check_same_recording(maps: Sequence[TwinInput]) -> None:
 
 
 def _fingerprint(m: TwinInput) -> tuple[object, ...] | None:
-    """The map's time span and the checksums of its entry members; None for a map without
+    """The map's time span and the checksums of its entry and count members; None for a map without
     detections or without a span or member checksums (nothing to compare)."""
     members = m.head.manifest.get("members")
     if m.head.accepted <= 0 or m.manifest.start_ns is None or not isinstance(members, dict):
@@ -68,7 +71,7 @@ def _fingerprint(m: TwinInput) -> tuple[object, ...] | None:
     sums = sorted(
         (name, str(record.get("sha256")))
         for name, record in members.items()
-        if name.startswith(ENTRY_PREFIX) and isinstance(record, dict)
+        if name.startswith(TWIN_PREFIXES) and isinstance(record, dict)
     )
     if not sums:
         return None
