@@ -61,6 +61,27 @@ def build_office_days(folder: Path, days: int = 3) -> Path:
     return out
 
 
+def figure_texts(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> list[str]:
+    """Run the command (it must succeed) and return the text of every artist of each figure it
+    saves as a PNG (titles, legend, caption), whitespace collapsed, in the order saved: what a
+    reader of the pictures sees written on them."""
+    from matplotlib.text import Text
+
+    import aion_cli.pictures.render as render
+
+    figures: list[Any] = []
+    saved = render.save_png
+
+    def keep(fig: Any, out: Path, option: str = "-o") -> Path:
+        figures.append(fig)
+        return saved(fig, out, option)
+
+    monkeypatch.setattr(render, "save_png", keep)
+    result = run(*args)
+    assert result.exit_code == 0, result.stderr
+    return [" ".join(" ".join(t.get_text() for t in f.findobj(Text)).split()) for f in figures]
+
+
 def run_process(*args: str | Path, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
     """Run the installed ``aion`` console script in a subprocess."""
     env = {**os.environ, "TZ": "UTC", "COLUMNS": "200"}

@@ -113,12 +113,7 @@ def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path:
     observe it, then 08:10-08:20 and 08:20-08:30 to the last message (29/30): 2 + 29/30
     windows. build --observed had left 08:00-08:10 unknown (1 + 29/30), where the
     converted log, whose markers start at 08:00, observed it."""
-    late = tmp_path / "late.csv"
-    t0 = 1795421400  # 2026-11-23 08:10 UTC
-    late.write_text("".join(
-        f"{t0 + minute * 60 + 5 + i}.000,{minute + 1},{-10 + i * 0.5:.3f},1.000,0.5,0.0\n"
-        for minute in range(20) for i in range(30)
-    ))
+    late = _late_rows(tmp_path / "late.csv", range(20))
     span = "2026-11-23 08:00..2026-11-23 08:25"
     marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
     convert_atc(late, marked, "--observed", span)

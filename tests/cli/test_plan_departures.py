@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.cli.conftest import Office, assert_one_line_error, figure_texts, run, run_json
 
 SPAN = "2026-01-12 06:00..2026-01-12 12:00"
 
@@ -126,24 +126,10 @@ def test_a_plan_at_an_hour_no_log_observed_says_its_costs_are_extrapolated(
 
 
 def _figure_text(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> str:
-    """The text of every artist of the figure the command saves as a PNG (titles, legend,
-    caption), whitespace collapsed: what a reader of the picture sees written on it."""
-    from matplotlib.text import Text
-
-    import aion_cli.pictures.render as render
-
-    figures: list[Any] = []
-    saved = render.save_png
-
-    def keep(fig: Any, out: Path, option: str = "-o") -> Path:
-        figures.append(fig)
-        return saved(fig, out, option)
-
-    monkeypatch.setattr(render, "save_png", keep)
-    result = run(*args)
-    assert result.exit_code == 0, result.stderr
-    (fig,) = figures
-    return " ".join(" ".join(t.get_text() for t in fig.findobj(Text)).split())
+    """The text of the one figure the command saves as a PNG (titles, legend, caption),
+    whitespace collapsed: what a reader of the picture sees written on it."""
+    (text,) = figure_texts(monkeypatch, *args)
+    return text
 
 
 @pytest.mark.parametrize(

@@ -12,12 +12,11 @@ import os
 import shutil
 from html.parser import HTMLParser
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
-from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, run, run_json
+from tests.cli.conftest import SAMPLE, Office, assert_one_line_error, figure_texts, run, run_json
 
 LOG_NAME = 'off<i>&amp;"ce.mcap'
 WHEN = "2026-01-12 08:40"
@@ -440,28 +439,15 @@ def test_a_report_at_an_hour_no_log_observed_says_its_busiest_and_map_are_extrap
     hour observed; only the activity curves' grey bands said which hours were extrapolated.
     Now the page's time, the busiest table's sentence and the map's title say it in the words
     of ``predict --time``'s table, which ``predict --format json`` agrees with; not at 08:05."""
-    from matplotlib.text import Text
-
-    import aion_cli.pictures.render as render
-
-    figures: list[Any] = []
-    saved = render.save_png
-
-    def keep(fig: Any, out: Path, option: str = "-o") -> Path:
-        figures.append(fig)
-        return saved(fig, out, option)
-
-    monkeypatch.setattr(render, "save_png", keep)
     out = tmp_path / "report"
-    result = run("report", office.map, "-o", out, "--time", when, "--tz", "UTC", "-q")
-    assert result.exit_code == 0, result.stderr
+    texts = figure_texts(monkeypatch, "report", office.map, "-o", out, "--time", when, "--tz",
+                         "UTC", "-q")
     doc = run_json("predict", office.map, "--time", when, "--tz", "UTC", "--format", "json")
     assert doc["hour_observed"] is seen
     page = " ".join(html.unescape((out / "index.html").read_text()).split())
     mark = f"predicted at {doc['time']} (extrapolated: an hour no log observed)"
     assert page.count(mark) == (0 if seen else 2)  # the page's time, the busiest sentence
     assert f"predicted at {doc['time']}" in page
-    texts = [" ".join(" ".join(t.get_text() for t in f.findobj(Text)).split()) for f in figures]
     (text,) = [t for t in texts if t.startswith("office.aion") or " office.aion " in t]
     assert f"Mon 2026-11-30 {when[-5:]} UTC" in text
     assert ("(extrapolated: an hour no log observed)" in text) is not seen
