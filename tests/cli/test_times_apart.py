@@ -14,7 +14,7 @@ import pytest
 from aion_cli.formats import dsg as fdsg
 from aion_cli.formats.writers import LogWriter
 from aion_cli.times_apart import FAR_NS, span_apart
-from tests.cli.conftest import run
+from tests.cli.conftest import Office, run
 from tests.shared_data import real
 
 S = 10**9
@@ -171,3 +171,19 @@ def test_api_build_warns_of_a_span_apart(tmp_path: Path) -> None:
     apart = [str(w.message) for w in caught if "lies wholly before" in str(w.message)]
     assert len(apart) == 1
     assert apart[0].startswith('observed= "2016-01-05 10:00..2016-01-05 12:00"')
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_spans_a_robot_trajectory_sets_aside_are_not_said_to_count(
+    office: Office, tmp_path: Path, workers: str
+) -> None:
+    """The office log has TF: a robot trajectory observes, and ``--observed`` is ignored with
+    a warning saying so. A span apart from the log (January against its November) was also
+    said to "still count as observed and empty", which it does not; only the warning that
+    it is ignored remains, with one worker or two."""
+    result = run("build", office.log, "-o", tmp_path / "r.aion", "--workers", workers,
+                 "--observed", "2026-01-12 08:00..2026-01-12 09:00", "-q")
+    assert result.exit_code == 0, result.stderr
+    assert "--observed ignored: the logs have a robot trajectory" in result.stderr
+    assert "lies wholly before" not in result.stderr
+    assert "count as observed" not in result.stderr
