@@ -150,7 +150,9 @@ def count_sums(counts: Any, axis: int) -> Any:
         return counts.sum(axis=axis, dtype=wide)
     if counts.ndim == 3 and counts.dtype == np.float64:
         # whole numbers below 2^53 sum to the same float in any order: einsum's plain loops
-        # (about twice as fast as sum's here, issue 15) give the bits sum gives
+        # (about twice as fast as sum's here, issue 15) give the bits sum gives. Fractional
+        # counts (the STeF-style grid's in `aion evaluate atc`) may differ from sum's
+        # pairwise order in the last bit (its NLL moved by 2e-16 at stop 64)
         return np.einsum(_SUBSCRIPTS[axis], counts)
     return counts.sum(axis=axis)
 
