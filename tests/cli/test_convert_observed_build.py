@@ -7,6 +7,7 @@ markers made a window the span only partly covers count whole (27.0 windows agai
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -113,16 +114,7 @@ def test_a_span_before_the_first_detection_is_observed_by_either_route(tmp_path:
     observe it, then 08:10-08:20 and 08:20-08:30 to the last message (29/30): 2 + 29/30
     windows. build --observed had left 08:00-08:10 unknown (1 + 29/30), where the
     converted log, whose markers start at 08:00, observed it."""
-    late = _late_rows(tmp_path / "late.csv", range(20))
-    span = "2026-11-23 08:00..2026-11-23 08:25"
-    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
-    convert_atc(late, marked, "--observed", span)
-    convert_atc(late, plain)
-    run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
-    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", span,
-                 "--format", "json")
-    via_convert = observed_windows(tmp_path / "a.aion")
-    via_build = observed_windows(tmp_path / "b.aion")
+    via_convert, via_build, b = _both_routes(tmp_path, "2026-11-23 08:00..2026-11-23 08:25")
     assert via_build.max() == pytest.approx(2 + 29 / 30)
     assert via_convert.tobytes() == via_build.tobytes()
     assert any(n.startswith("--observed: 1 window(s) without a message") for n in b["notes"])
@@ -147,6 +139,21 @@ def _late_rows(path: Path, minutes: range) -> Path:
     return path
 
 
+def _both_routes(tmp_path: Path, span: str) -> tuple[np.ndarray, np.ndarray, Any]:
+    """The :func:`_late_rows` of minutes 0-19 observed over ``span`` by either route: converted
+    with ``--observed`` and built as it is (``a.mcap`` → ``a.aion``), and converted plain and
+    built with ``--observed`` (``b.mcap`` → ``b.aion``). Each map's observed windows, and the
+    second build's JSON report."""
+    late = _late_rows(tmp_path / "late.csv", range(20))
+    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
+    convert_atc(late, marked, "--observed", span)
+    convert_atc(late, plain)
+    run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
+    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", span,
+                 "--format", "json")
+    return observed_windows(tmp_path / "a.aion"), observed_windows(tmp_path / "b.aion"), b
+
+
 def test_a_span_after_the_last_detection_is_observed_by_either_route(tmp_path: Path) -> None:
     """The span 08:00-08:55, detections 08:10:05 to 08:29:34: the windows 08:30-08:40 and
     08:40-08:50 and half of 08:50-09:00 hold no detection but are declared, so both routes
@@ -158,17 +165,10 @@ def test_a_span_after_the_last_detection_is_observed_by_either_route(tmp_path: P
     the whole span. A map of the first file given the whole span has observed 08:20-08:55:
     the second file is refused, as after a log converted with the span (its markers run to
     08:55)."""
-    late = _late_rows(tmp_path / "late.csv", range(20))
     span = "2026-11-23 08:00..2026-11-23 08:55"
-    marked, plain = tmp_path / "a.mcap", tmp_path / "b.mcap"
-    convert_atc(late, marked, "--observed", span)
-    convert_atc(late, plain)
-    run_json("build", marked, "-o", tmp_path / "a.aion", "--format", "json")
-    b = run_json("build", plain, "-o", tmp_path / "b.aion", "--observed", span,
-                 "--format", "json")
-    via_convert = observed_windows(tmp_path / "a.aion")
+    via_convert, via_build, b = _both_routes(tmp_path, span)
     assert via_convert.max() == pytest.approx(5.5)
-    assert observed_windows(tmp_path / "b.aion").tobytes() == via_convert.tobytes()
+    assert via_build.tobytes() == via_convert.tobytes()
     assert not any("stay unknown" in n for n in b["notes"])  # no declared window left out
     end = (1795420800 + 55 * 60) * 10**9 - 1
     assert read_manifest(tmp_path / "a.aion")["time_span"]["end_ns"] == end
