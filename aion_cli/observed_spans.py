@@ -55,13 +55,14 @@ def outside_logs_note(
     none."""
     if not declared or not spans:
         return None
-    total = sum(b - a + 1 for a, b in _window_runs(declared, delta))
+    runs = _window_runs(declared, delta)
+    total = sum(b - a + 1 for a, b in runs)
     filled = declared_windows(declared, spans, delta, (start, end))
     n = total - filled.size
     if n == 0:
         return None
     last = _fill_range(spans, (start, end))[1]
-    after = sum(b - max(a, last + 1) + 1 for a, b in _window_runs(declared, delta) if b > last)
+    after = sum(b - max(a, last + 1) + 1 for a, b in runs if b > last)
     where = (
         "after the last log's last message" if after == n else "outside the logs' time "
         "(before the first log's first message or after the last log's last)"
