@@ -63,10 +63,12 @@ class GraphFile:
         return f"spark_dsg {self.kind} {self.version}"
 
     def notes(self) -> list[str]:
-        """What the user must be told: a name that says another format than the file holds,
-        the lenient read and what it skipped."""
+        """What the user must be told: a name that says another format than the file holds
+        (``.bson`` holding JSON does not: spark_dsg saves it so), the lenient read and what
+        it skipped."""
         named = []
-        if self.read_as and self.read_as != self.path.suffix.lower():
+        own = self.path.suffix.lower()
+        if self.read_as and self.read_as != own and (own, self.read_as) != (".bson", ".json"):
             named.append(
                 f"{self.path.name} holds a {self.kind} graph: read as a {self.read_as} file "
                 "(spark_dsg reads a graph by its suffix)"
@@ -222,12 +224,20 @@ def _suffix_by_content(path: Path, suffix: str) -> str:
     """The suffix spark_dsg must be given for ``path`` (it chooses its reader by the name):
     ``suffix``, but ``.json`` for JSON text named ``.sparkdsg`` and ``.sparkdsg`` for a
     binary graph named ``.json`` (a renamed file was called damaged, or not UTF-8); JSON text
-    may start with a UTF-8 byte-order mark (a ``.json`` file read so, leniently)."""
+    may start with a UTF-8 byte-order mark (a ``.json`` file read so, leniently).
+
+    A ``.bson`` file is read as ``.json`` (spark_dsg saves ``.bson`` as JSON text and reads
+    it back as JSON), or as ``.sparkdsg`` when it holds a binary graph: read under its own
+    name, its version header, the lenient reading of a file spark_dsg refuses and a legacy
+    file's agent stamps were all missed (a legacy ``.bson`` gave every agent pose time 0)."""
     with open(path, "rb") as fh:
         head = fh.read(64)
+    binary = head[:14] == spark_header("0.0.0")[:14]  # binary's header
+    if suffix == ".bson":
+        return ".sparkdsg" if binary else ".json"
     if suffix == ".sparkdsg" and head.removeprefix(b"\xef\xbb\xbf").lstrip()[:1] == b"{":
         return ".json"
-    if suffix == ".json" and head[:14] == spark_header("0.0.0")[:14]:  # binary's header
+    if suffix == ".json" and binary:
         return ".sparkdsg"
     return suffix
 
