@@ -25,6 +25,13 @@ import numpy.typing as npt
 from aion_cli.engine.types import I64, GraphSnapshot, Trajectory
 from aion_cli.errors import InputError, MessageDecodeError, PartialGraphError
 from aion_cli.formats.dsg_delta import GraphReader
+from aion_cli.graph_notes import (
+    DAMAGED_GRAPHS_NOTE,
+    NO_GRAPH_NOTES,
+    PARTIAL_GRAPHS_NOTE,
+    graph_counts_note,
+    other_frame_warning,
+)
 from aion_cli.graph_schedule import graph_schedule
 from aion_cli.topics import FRONTEND_REASON, several_graph_topics
 
@@ -41,6 +48,7 @@ __all__ = [
     "graph_source",
 ]
 
+
 class GraphOptions(Protocol):
     """The build options :func:`graph_source` reads (``pipeline.BuildOptions`` has them)."""
 
@@ -50,48 +58,6 @@ class GraphOptions(Protocol):
     def nav_layer(self) -> str | None: ...
     @property
     def derive_graph(self) -> bool: ...
-
-
-GRAPH_COUNTS_NOTE = "scene graphs: "
-DAMAGED_GRAPHS_NOTE = "damaged scene-graph message(s) skipped"
-PARTIAL_GRAPHS_NOTE = (
-    "partial scene-graph update(s) (full_update false) skipped: aion applies whole graphs "
-    "only, and the graph stays as it was until the next one"
-)
-NO_GRAPH_NOTES = ("no scene graph: ", "--nav-layer ignored: no scene graph is read")
-"""How the notes of a build that reads no scene graph start (a parallel build's parent leaves
-out a shard's when another shard read one)."""
-
-
-def graph_counts_note(r: BuildReport) -> str | None:
-    """The note on the graphs a build applied, decoded, reused and left out (None when it
-    applied and decoded every one)."""
-    if not (r.graphs_skipped_period or r.graphs_skipped_identical):
-        return None
-    seen = r.graph_messages + r.graph_skipped + r.graphs_skipped_period
-    return (
-        f"{GRAPH_COUNTS_NOTE}{r.graph_messages:,} of {seen:,} applied "
-        f"({r.graph_decoded:,} decoded, {r.graphs_read_by_changes:,} of them by the "
-        f"nodes that changed; {r.graphs_skipped_identical:,} identical to "
-        f"the payload before and not decoded again); {r.graphs_skipped_period:,} left "
-        f"out by --graph-period {r.graph_period_ns / 1e9:g}s"
-    )
-
-
-def pins_blocker(
-    before: tuple[str | None, str | None], shard: tuple[str | None, str | None]
-) -> str | None:
-    """Why graphs read with the pins ``shard`` chose from scratch (:attr:`GraphFeed.pins` of a
-    shard of a parallel build) would not be read as one pass reads them, with the pins the
-    graphs ``before`` them chose; None when they would (the same pins, or one side has none)."""
-    for what, mine, theirs in zip(("spark_dsg version", "navigational layer"), before, shard,
-                                  strict=True):
-        if mine is not None and theirs is not None and mine != theirs:
-            return (
-                f"their scene graphs chose another {what} ({theirs}) than the graphs before "
-                f"them ({mine}), which one pass keeps for the rest of the stream"
-            )
-    return None
 
 
 class GraphFeed:
@@ -112,8 +78,12 @@ class GraphFeed:
         period_ns: int,
         skip_identical: bool = True,
         pins: tuple[str | None, str | None] = (None, None),
+        map_frame: str = "map",
     ) -> None:
         self.report = report
+        self.map_frame = map_frame
+        # per topic, the frame its graphs name when that is not the map frame (None: it is)
+        self._frames: dict[str, str | None] = {}
         if dsg_version is not None:  # --dsg-version: failures stop the build
             from aion_cli.formats.dsg_payload import pinned_version
 
@@ -312,6 +282,11 @@ class GraphFeed:
             r.notes.append(note)
         if self.partial:
             r.notes.append(f"{self.partial:,} {PARTIAL_GRAPHS_NOTE}")
+        for topic, frame in sorted(self._frames.items()):
+            if frame is not None:
+                warning = other_frame_warning(topic, frame, self.map_frame)
+                if warning not in r.warnings:
+                    r.warnings.append(warning)
         if r.graph_skipped == 0 or self._first_error is None:
             return
         if r.graph_messages == 0 and stop_if_none:
@@ -386,6 +361,11 @@ class GraphFeed:
         from aion_cli.formats.dsg_update_fast import update_fields
 
         fields = update_fields(logset, msg, self._fast_layout)
+        if msg.topic not in self._frames:  # the first graph's frame speaks for its topic
+            from aion_cli.formats.raw import normalize_frame
+
+            frame = normalize_frame(fields.frame_id)  # empty: Hydra's ROS 1 sender
+            self._frames[msg.topic] = frame if frame not in ("", self.map_frame) else None
         t_ns = int(fields.sec) * 1_000_000_000 + int(fields.nanosec) or msg.log_time_ns
         if not fields.full_update and self._uses_flag(logset, msg.topic):
             raise PartialGraphError(

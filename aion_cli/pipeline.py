@@ -153,6 +153,7 @@ class _Build(StreamStep):
             o.graph_period_ns,
             o.skip_identical_graphs,
             self.at.graph_pins,
+            o.map_frame,
         )
 
     @property

@@ -166,7 +166,7 @@ def fold(
     from aion_cli.detection_feed import yaw_rule_blocker
     from aion_cli.engine.graph_arrays import file_graph_time
     from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
-    from aion_cli.graph_feed import pins_blocker
+    from aion_cli.graph_notes import pins_blocker
 
     state = result.state
     if state is None:

@@ -5,7 +5,7 @@ times (warned of from the sums, once), scene-graph messages and skips, TF failur
 notes and warnings are kept once each; the observation source is the first shard's, with a
 warning when the shards' sources differ, and a fixed sensor's observed windows are summed into
 one line. The scene-graph counts note is written once, from the sums
-(:func:`aion_cli.graph_feed.graph_counts_note`), and the parent stops, as one pass does, only
+(:func:`aion_cli.graph_notes.graph_counts_note`), and the parent stops, as one pass does, only
 when no shard could decode any of its scene graphs.
 """
 
@@ -25,7 +25,7 @@ from aion_cli.fixed_sensor import (
     fixed_sensor_text,
     unposed_note,
 )
-from aion_cli.graph_feed import (
+from aion_cli.graph_notes import (
     DAMAGED_GRAPHS_NOTE,
     GRAPH_COUNTS_NOTE,
     NO_GRAPH_NOTES,

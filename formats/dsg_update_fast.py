@@ -37,12 +37,15 @@ DSG_UPDATE = "hydra_msgs/msg/DsgUpdate"
 @dataclass(frozen=True)
 class DsgUpdateFields:
     """What a build reads of a DsgUpdate: the header stamp, the payload (a view of the
-    message's own bytes) and ``full_update`` (whether the payload is the whole graph)."""
+    message's own bytes), ``full_update`` (whether the payload is the whole graph) and the
+    header's ``frame_id`` (the frame of the graph's positions; empty from Hydra's ROS 1
+    sender)."""
 
     sec: int
     nanosec: int
     payload: memoryview
     full_update: bool = True
+    frame_id: str = ""
 
 
 @dataclass(frozen=True)
@@ -67,14 +70,13 @@ def _u32(data: memoryview, p: int) -> int:
     return int.from_bytes(data[p : p + 4], "little")
 
 
-def _string(data: memoryview, p: int, cdr: bool) -> int:
-    """The end of the string whose length field is at ``p`` (its text must be UTF-8)."""
+def _string(data: memoryview, p: int, cdr: bool) -> tuple[str, int]:
+    """The string whose length field is at ``p`` (its text must be UTF-8) and its end."""
     n = _u32(data, p)
     end = p + 4 + n
     if end > len(data) or (cdr and (n < 1 or data[end - 1] != 0)):
         raise ValueError("bad string")
-    bytes(data[p + 4 : end - 1 if cdr else end]).decode("utf-8")
-    return end
+    return bytes(data[p + 4 : end - 1 if cdr else end]).decode("utf-8"), end
 
 
 def _ros1(data: memoryview) -> DsgUpdateFields:
@@ -82,7 +84,7 @@ def _ros1(data: memoryview) -> DsgUpdateFields:
         raise ValueError("cut short")
     sec = int.from_bytes(data[4:8], "little", signed=True)
     nanosec = _u32(data, 8)
-    p = _string(data, 12, cdr=False)
+    frame, p = _string(data, 12, cdr=False)
     n = _u32(data, p)
     start, p = p + 4, p + 4 + n
     if p > len(data):
@@ -91,7 +93,7 @@ def _ros1(data: memoryview) -> DsgUpdateFields:
         p = p + 4 + 8 * _u32(data, p)
     if p + 9 != len(data):  # full_update, sequence_number
         raise ValueError("size mismatch")
-    return DsgUpdateFields(sec, nanosec, data[start : start + n], data[p] != 0)
+    return DsgUpdateFields(sec, nanosec, data[start : start + n], data[p] != 0, frame)
 
 
 def _cdr(data: memoryview) -> DsgUpdateFields:
@@ -102,7 +104,7 @@ def _cdr(data: memoryview) -> DsgUpdateFields:
         raise ValueError("cut short")
     sec = int.from_bytes(body[0:4], "little", signed=True)
     nanosec = _u32(body, 4)
-    p = _string(body, 8, cdr=True)
+    frame, p = _string(body, 8, cdr=True)
     p = (p + 3) & -4
     n = _u32(body, p)
     start, p = p + 4, p + 4 + n
@@ -119,7 +121,7 @@ def _cdr(data: memoryview) -> DsgUpdateFields:
     p = ((p + 7) & -8) + 8  # sequence_number
     if p > len(body) or len(body) - p > 3:
         raise ValueError("size mismatch")
-    return DsgUpdateFields(sec, nanosec, body[start : start + n], body[full] != 0)
+    return DsgUpdateFields(sec, nanosec, body[start : start + n], body[full] != 0, frame)
 
 
 def read_dsg_update(data: bytes | memoryview, encoding: str) -> DsgUpdateFields | None:
@@ -166,4 +168,7 @@ def update_fields(
     payload = np.ascontiguousarray(decoded.layer_contents, dtype=np.uint8).data
     stamp = decoded.header.stamp
     full = bool(getattr(decoded, "full_update", True))
-    return DsgUpdateFields(int(stamp.sec), int(stamp.nanosec), payload, full)
+    frame = getattr(decoded.header, "frame_id", "")
+    return DsgUpdateFields(
+        int(stamp.sec), int(stamp.nanosec), payload, full, frame if isinstance(frame, str) else ""
+    )

@@ -131,6 +131,30 @@ def test_hydra_frontend_graph_beside_the_backend_is_left_out(tmp_path: Path) -> 
     np.testing.assert_allclose(np.sort(xyz[:, 0]), sorted(p[0] for p in PLACES.values()))
 
 
+def test_a_scene_graph_in_another_frame_than_the_map_is_warned_of(tmp_path: Path) -> None:
+    """A DsgUpdate names its graph's frame in its header (Hydra's frontend graph: ``odom``;
+    the backend's: ``map``; Hydra's ROS 1 sender leaves it empty). aion takes a graph's
+    positions as the map frame's and read the frontend's 1.5 m off without a word; a graph
+    in another frame than the map's is now a warning naming both frames."""
+    from aion_cli.graph_notes import other_frame_warning
+
+    log = tmp_path / "hydra.mcap"
+    write_office_log(log, second_graph=("/hydra/frontend/dsg", FRONTEND))
+    front = run_json(
+        "build", log, "-o", tmp_path / "front.aion", "--graph-topic", "/hydra/frontend/dsg",
+        "--format", "json",
+    )  # fmt: skip
+    assert front["nodes"] == len(FRONTEND)
+    warning = other_frame_warning("/hydra/frontend/dsg", "odom", "map")
+    assert warning in front["warnings"], front["warnings"]
+    assert warning.startswith(
+        "the scene graphs on /hydra/frontend/dsg are in frame 'odom', not the map frame 'map'"
+    )
+    back = run_json("build", log, "-o", tmp_path / "back.aion", "--format", "json")
+    assert back["graph"]["topics"] == ["/hydra/backend/dsg"]  # its graphs are in 'map'
+    assert not [w for w in back["warnings"] if "are in frame" in w], back["warnings"]
+
+
 def test_two_scene_graph_streams_need_graph_topic(tmp_path: Path) -> None:
     """Two robots' backend graphs (each numbering its places from p0) took turns as the map's
     graph; now the build is refused until --graph-topic names one."""

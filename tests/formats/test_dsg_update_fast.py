@@ -57,6 +57,7 @@ def _assert_like_rosbags(m: RawMessage, expect_fast: bool = True) -> None:
         return
     stamp = ref.header.stamp
     assert (fields.sec, fields.nanosec) == (stamp.sec, stamp.nanosec)
+    assert fields.frame_id == ref.header.frame_id
     assert bytes(fields.payload) == np.asarray(ref.layer_contents, np.uint8).tobytes()
     assert isinstance(fields.payload, memoryview)  # a view of the message, not a copy
     assert fields.payload.obj is m.data
