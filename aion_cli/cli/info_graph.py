@@ -93,7 +93,7 @@ def print_graph(report: dict[str, Any]) -> None:
     table.add_row("place edges", f"{report['edges']:,}")
     table.add_row("rooms", f"{report['rooms']:,} ({report['places_with_room']:,} places in a room)")
     table.add_row("buildings", f"{report['buildings']:,}")
-    table.add_row("agent poses", f"{report['agent_poses']:,}")
+    table.add_row("agent poses", f"{report['agent_poses']:,}{_robots_text(report['layers'])}")
     dynamics = report.get("aion")
     if dynamics is not None:
         when = (
@@ -127,3 +127,24 @@ def print_graph(report: dict[str, Any]) -> None:
             "choose another with --nav-layer",
             soft_wrap=True,
         )
+
+
+def _robots_text(layers: list[dict[str, Any]]) -> str:
+    """`` (robot a, 2[97]; not used: 2[98] 5)`` when the graph holds several robots' agent
+    partitions (Hydra-Multi): aion takes the first robot's poses (the lowest partition, as
+    :func:`formats.dsg_scan.navigation` does), and the count alone read as every robot's;
+    "" for one robot or none."""
+    import re
+
+    robots = []
+    for row in layers:
+        m = re.fullmatch(r"(\d+)\[(\d+)\]", str(row["key"]))
+        if row["name"] == "AGENTS" and m and int(m[2]) != 0 and row["nodes"]:
+            robots.append((int(m[2]), row["key"], row["nodes"]))
+    if len(robots) < 2:
+        return ""
+    robots.sort()
+    part, key, _ = robots[0]
+    who = f"robot {chr(part)}, {key}" if chr(part).isalpha() and part < 128 else key
+    others = ", ".join(f"{k} {n:,}" for _, k, n in robots[1:])
+    return f" ({who}; not used: {others})"

@@ -214,3 +214,31 @@ def test_build_graph_file_with_nav_layer_and_without_graph(tmp_path: Path) -> No
     )
     assert report["graph"]["layer"] is None
     assert "--nav-layer ignored: no scene graph is read" in report["notes"]
+
+
+def test_info_graph_file_with_two_robots_says_whose_poses_are_taken(tmp_path: Path) -> None:
+    """Hydra-Multi graphs hold an agent partition per robot (``2[97]`` robot a, ``2[98]``
+    robot b). aion takes robot a's poses; "agent poses 3" read as every robot's, so the row
+    now names the robot taken and the poses left out, each count as spark_dsg holds it."""
+    import datetime
+
+    import spark_dsg
+
+    G = b.hydra_graph()
+    for robot, poses in (("b", 5), ("a", 3)):
+        for k in range(poses):
+            agent = spark_dsg.AgentNodeAttributes()
+            agent.position = np.array([float(k), 1.0, 0.0])
+            agent.timestamp = datetime.timedelta(seconds=k)
+            G.add_node(2, spark_dsg.NodeSymbol(robot, k), agent, ord(robot))
+    path = b.save(G, tmp_path / "two_robots.json")
+    back = spark_dsg.DynamicSceneGraph.load(str(path))
+    held = {v.partition: v.num_nodes() for v in back.layer_partitions if v.id == 2}
+    assert held == {ord("a"): 3, ord("b"): 5}
+    result = run("info", path)
+    assert result.exit_code == 0, result.stderr
+    row = _table(result.stdout)["agent poses"]
+    assert row == f"{held[ord('a')]} (robot a, 2[97]; not used: 2[98] {held[ord('b')]})"
+    assert run_json("info", path, "--format", "json")["agent_poses"] == held[ord("a")]
+    one = b.save(b.hydra_graph(), tmp_path / "no_robot.json")
+    assert _table(run("info", one).stdout)["agent poses"] == "0"
