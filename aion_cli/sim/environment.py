@@ -210,6 +210,7 @@ def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = Non
     place_room = np.asarray(places.parent, dtype=np.uint64)[keep]
     clearance = loaded.nav.clearance
     room_ids, room_xyz, labels, building = _rooms_of(snap, place_room)
+    notes = tuple(loaded.notes()) + _rooms_left_out(path, snap, layer)
     return Environment(
         name=path.name,
         place_ids=np.asarray(places.ids, dtype=np.uint64)[keep],
@@ -223,7 +224,24 @@ def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = Non
         building_id=building,
         roles=roles_for_graph(xyz, n_desks),
         layer=str(layer),
-        notes=tuple(loaded.notes()),
+        notes=notes,
+    )
+
+
+def _rooms_left_out(path: Path, snap: GraphSnapshot, layer: object) -> tuple[str, ...]:
+    """The note for a graph whose rooms hold none of the navigational layer's places (a Hydra
+    graph whose rooms hold its 3D places while its 2D places are walked): the simulated
+    graphs carry only the rooms of the walked places, so they have none, and the logs' maps
+    answer per place only (:func:`aion_cli.room_names.rooms_off_the_nav_layer`)."""
+    from aion_cli.room_names import rooms_off_the_nav_layer
+
+    if rooms_off_the_nav_layer(snap) is None:
+        return ()
+    n = len(snap.rooms)
+    return (
+        f"{path.name}: none of its {n:,} room{'s' if n != 1 else ''} holds a place of the "
+        f"navigational layer {layer}: the simulated scene graphs have no rooms (rooms "
+        "that hold another layer's places: give --nav-layer naming it, e.g. --nav-layer PLACES)",
     )
 
 

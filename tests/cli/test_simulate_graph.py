@@ -129,3 +129,37 @@ def _one_place_graph() -> object:
     a.position = np.zeros(3)
     G.add_node(dsg.LayerKey(3, 1), dsg.NodeSymbol("P", 0), a)
     return G
+
+
+def test_simulate_says_when_the_rooms_hold_none_of_the_walked_places(tmp_path: Path) -> None:
+    """A Hydra graph whose rooms hold its 3D places (``PLACES``) while its 2D places
+    (``MESH_PLACES``) are walked: the simulated graphs carry only the walked places' rooms,
+    so they had none, without a word; now a note says so. With ``--nav-layer PLACES`` the
+    rooms are the walked places' and there is no note."""
+    import spark_dsg as dsg
+
+    G = b.hydra_graph(with_mesh_places=False)
+    b._hierarchy(G, dsg, lambda g, s, a: g.add_node(dsg.LayerKey(3, 1), s, a), parents=False)
+    for i in range(b.PLACES_3D):
+        G.insert_edge(dsg.NodeSymbol("p", i), dsg.NodeSymbol("R", int(i >= 5)))
+    path = b.save(G, tmp_path / "rooms3d.json")
+    back = dsg.DynamicSceneGraph.load(str(path))  # spark_dsg: the rooms hold 'p' places only
+    kids = {dsg.NodeSymbol(c).category for r in back.get_layer(4).nodes for c in r.children()}
+    assert kids == {"p"}
+    result = run("simulate", "-o", tmp_path / "m.mcap", "--environment", path, *SHORT)
+    assert result.exit_code == 0, result.stderr
+    note = (
+        "rooms3d.json: none of its 2 rooms holds a place of the navigational layer "
+        "MESH_PLACES (3[1]): the simulated scene graphs have no rooms"
+    )
+    assert f"note: {note}" in result.stderr
+    meta = json.loads((tmp_path / "m.mcap.truth.json").read_text())
+    assert meta["nav_layer"] == "MESH_PLACES (3[1])"
+    assert [n for n in meta["environment_notes"] if n.startswith(note)]
+    result = run(
+        "simulate", "-o", tmp_path / "p.mcap", "--environment", path, "--nav-layer", "PLACES",
+        *SHORT,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.stderr
+    assert "rooms3d.json: none of its" not in result.stderr
+    assert json.loads((tmp_path / "p.mcap.truth.json").read_text())["environment_notes"] == []
