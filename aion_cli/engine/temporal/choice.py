@@ -243,3 +243,28 @@ def count_quantiles(mean: npt.ArrayLike, variance: npt.ArrayLike, q: float) -> F
         n = mu[over] * p / (1.0 - p)
         out[over] = stats.nbinom.ppf(q, n, p)
     return out
+
+
+def count_cdf(count: npt.ArrayLike, mean: npt.ArrayLike, variance: npt.ArrayLike) -> F64:
+    """P(N ≤ count) for the window count :func:`count_quantiles` reads its spread from (the
+    same negative binomial or Poisson, the same parameters): what a spread's calibration is
+    judged with (``evaluation.spread``). 0 below 0; NaN where the mean is unknown."""
+    from scipy import stats
+
+    y = np.floor(np.asarray(count, dtype=np.float64))
+    mu = np.asarray(mean, dtype=np.float64)
+    var = np.asarray(variance, dtype=np.float64)
+    y, mu, var = np.broadcast_arrays(y, mu, var)
+    out = np.full(mu.shape, np.nan)
+    known = np.isfinite(mu) & np.isfinite(var) & (mu >= 0) & ~np.isnan(y)
+    out[known] = (y[known] >= 0).astype(np.float64)  # a mean of 0: N = 0
+    pos = known & (mu > 0) & (y >= 0)
+    over = pos & (var > mu * (1.0 + 1e-9))  # count_quantiles' test
+    poisson = pos & ~over
+    if poisson.any():
+        out[poisson] = stats.poisson.cdf(y[poisson], mu[poisson])
+    if over.any():
+        p = mu[over] / var[over]
+        n = mu[over] * p / (1.0 - p)
+        out[over] = stats.nbinom.cdf(y[over], n, p)
+    return out

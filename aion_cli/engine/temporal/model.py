@@ -394,6 +394,16 @@ class Predictor:
             fc.directed_share,
             np.asarray(self.params.flow, dtype=str)[self._flow_choice(everyone, h)],
             np.asarray(self.params.direction, dtype=str)[self._direction_choice(everyone, h)],
-            np.where(self.extrapolated[h], self.phi_static, self.phi) * flow,
+            self.variances(everyone, h, flow),
             fc.observed,
         )
+
+    def variances(self, e: I64, h: I64, flow: F64) -> F64:
+        """The variance of the window count at (entry position, profile bin) pairs whose
+        expected count is ``flow``: φ · flow, with the entry's dispersion φ of its chosen
+        family (of ``static`` in extrapolated bins, where ``static`` forecasts). ``flow``
+        may be a share of the window's forecast (a window watched in part): counts over
+        a share s of a window have mean s·λ and variance φ·s·λ, as the day-ahead scoring
+        measured φ (``scoring``)."""
+        out: F64 = np.where(self.extrapolated[h], self.phi_static[e], self.phi[e]) * flow
+        return out
