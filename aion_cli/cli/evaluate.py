@@ -273,6 +273,7 @@ def lincoln(
     """
     from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.lincoln import TEST_DAY, TRAIN_DAYS, run_lincoln
+    from aion_cli.evaluation.spread import spread_note
 
     config = load_config(config_path)
     train: tuple[str, ...] = TRAIN_DAYS
@@ -286,6 +287,9 @@ def lincoln(
         warn(line)
     flows = ", ".join(f"{k} {v:,}" for k, v in sorted(result.families["flow"].items()))
     note(f"aion's flow models: {flows}")
+    spread = spread_note(result.spread)
+    if spread is not None:
+        note(spread)
     if fmt == "json":
         emit(fmt, [], (), json_payload=result.to_dict())
         return
@@ -350,12 +354,15 @@ def holdout(
     headings[{model, detections, matched, unmatched, nll_matched, nll_all, chi_square}],
     activity[{model, spearman, poisson_deviance, mae}], hours (each hour's start in the
     map's zone), hourly_series{truth, aion, aion static, hour-of-day profile} (per hour),
-    notes, warnings (null where a figure has no value: the table's -).
+    spread_coverage{place_windows, hours}{counts, inside, below, above, pit} (how aion's
+    flow_p10..flow_p90 band holds the test counts; pit 0.8 when calibrated:
+    docs/EVALUATION.md), notes, warnings (null where a figure has no value: the table's -).
     """
     from aion_cli.build_options import BuildOptions, map_frame_of
     from aion_cli.cli.build import observed_spans
     from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.holdout import run_holdout
+    from aion_cli.evaluation.spread import spread_note
 
     if png is not None:  # a bad target fails before the evaluation runs
         from aion_cli.pictures.render import check_png_target
@@ -367,8 +374,9 @@ def holdout(
                         observed=spans, detections_mapping=detections_mapping,
                         graph_topic=graph_topic, log_format=log_format)
     result = run_holdout(map_path, opts, radius, progress=note)
-    for line in result.notes:
-        note(line)
+    for line in (*result.notes, spread_note(result.spread)):
+        if line is not None:
+            note(line)
     for line in result.warnings:  # the test logs read in part: shown with -q and json too
         warn(line)
     if png is not None:

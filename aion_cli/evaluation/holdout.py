@@ -50,6 +50,7 @@ from aion_cli.evaluation.heading import (
     score_headings,
 )
 from aion_cli.evaluation.metrics import hourly_activity
+from aion_cli.evaluation.spread import spread_of
 
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
@@ -73,6 +74,9 @@ class HoldoutResult:
     notes: list[str] = field(default_factory=list)
     #: what reading the test logs warned of, as ``aion build`` would (a truncated log ...)
     warnings: list[str] = field(default_factory=list)
+    #: the coverage of the held-out counts by aion's 10th-90th percentile band, per (place,
+    #: window) and per hour (``evaluation.spread.spread_of``); empty without activity
+    spread: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def __repr__(self) -> str:
         """The scores in one line (not the hourly series, which a notebook would print
@@ -102,6 +106,7 @@ class HoldoutResult:
             "activity": self.activity,
             "hours": self.hours,
             "hourly_series": self.series,
+            "spread_coverage": self.spread,
             "notes": self.notes,
             "warnings": self.warnings,
         })
@@ -288,8 +293,9 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
     unseen = _no_place_observed(place, fixed, int(truth_w.sum()), state.config.sensor_range)
     if unseen is not None:
         result.warnings.append(unseen)
+    aion, expected, variance = _summed(place, window, share, windows.size, predictor, centres)
     per_window = {
-        "aion": _summed(place, window, share, windows.size, predictor, centres),
+        "aion": aion,
         "aion static": np.bincount(window, static[place] * share, minlength=windows.size),
         "hour-of-day profile": np.bincount(
             window, profile[place, bins[window]] * share, minlength=windows.size
@@ -301,6 +307,11 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
         starts, truth_w, per_window, state.params.calendar.local_ns(starts), observed
     )
     result.hours = [_hour_label(int(h), state.config.timezone) for h in hours.tolist()]
+    detection_window = np.where(hit, at, -1)
+    result.spread = spread_of(
+        state, rows, held.batch.xyz, detection_window, (place, window, windows.size),
+        (expected, variance), (starts, state.params.calendar.local_ns(starts)),
+    )
 
 
 def _no_place_observed(
@@ -358,16 +369,23 @@ def _summed(
     n_windows: int,
     predictor: Any,
     centres: np.ndarray,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The map's forecast (``Predictor.flows``; places never observed add nothing) times
     each pair's ``share`` of its window, summed per window over the pairs, a block of pairs
-    at a time."""
+    at a time; and per pair that forecast and its count's variance
+    (``Predictor.variances``; NaN for a place never observed), for the spread's coverage."""
     out = np.zeros(n_windows)
+    expected, variance = np.full(place.size, np.nan), np.full(place.size, np.nan)
     for a in range(0, place.size, _PAIRS):
         p, k = place[a : a + _PAIRS], window[a : a + _PAIRS]
-        flows = np.nan_to_num(predictor.flows(p, centres[k])) * share[a : a + _PAIRS]
-        out += np.bincount(k, flows, minlength=n_windows)
-    return out
+        t = centres[k]
+        flows = predictor.flows(p, t) * share[a : a + _PAIRS]
+        expected[a : a + _PAIRS] = flows
+        variance[a : a + _PAIRS] = predictor.variances(
+            p, predictor.params.calendar.profile_bin(t), flows
+        )
+        out += np.bincount(k, np.nan_to_num(flows), minlength=n_windows)
+    return out, expected, variance
 
 
 def _profile_rates(state: MapState, rows: np.ndarray, static: np.ndarray) -> np.ndarray:

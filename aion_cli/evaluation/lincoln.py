@@ -90,6 +90,9 @@ class LincolnResult:
     families: dict[str, dict[str, int]] = field(default_factory=dict)
     data: dict[str, Any] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    spread: dict[str, dict[str, Any]] = field(default_factory=dict)
+    """The coverage of the test day's counts by aion's 10th-90th percentile band, per
+    (entry, window) and per hour (``evaluation.spread.spread_of``)."""
 
     train: tuple[str, ...] = TRAIN_DAYS
     test: str = TEST_DAY
@@ -105,6 +108,7 @@ class LincolnResult:
             "hours_utc": self.hours,
             "hourly_series": self.series,
             "families": self.families,
+            "spread_coverage": self.spread,
             "warnings": self.warnings,
         }
 
@@ -338,6 +342,7 @@ def _activity(
     for row, rated in zip(result.activity, by_rate, strict=True):
         row["spearman_rate"] = rated["spearman"]
     result.hours = [int(h // HOUR_NS % 24) for h in hours.tolist()]
+    result.spread = _spread(state, test, windows, share, window_ns)
     table = predict_table(state, int(centres[len(centres) // 2]))
     fam, cnt = np.unique(table.flow_family[table.flow_family != "none"], return_counts=True)
     dfam, dcnt = np.unique(
@@ -347,6 +352,32 @@ def _activity(
         "flow": {str(f): int(c) for f, c in zip(fam, cnt, strict=True)},
         "direction": {str(f): int(c) for f, c in zip(dfam, dcnt, strict=True)},
     }
+
+
+def _spread(
+    state: Any, test: DayData, windows: np.ndarray, share: np.ndarray, window_ns: int
+) -> dict[str, dict[str, Any]]:
+    """How aion's band holds the test day's counts (``evaluation.spread``): every entry in
+    every observed window, its forecast times the share of the window recorded (UTC hours,
+    as the hourly activity)."""
+    from aion_cli.evaluation.spread import spread_of
+
+    rows, predictor = state.predictor()
+    centres = windows * window_ns + window_ns // 2
+    place = np.tile(np.arange(rows.size, dtype=np.int64), windows.size)
+    window = np.repeat(np.arange(windows.size, dtype=np.int64), rows.size)
+    expected = predictor.flows(place, centres[window]) * share[window]
+    variance = predictor.variances(
+        place, predictor.params.calendar.profile_bin(centres[window]), expected
+    )
+    det_w = test.batch.t_ns // window_ns
+    at = np.searchsorted(windows, det_w)
+    hit = (at < windows.size) & (windows[np.minimum(at, windows.size - 1)] == det_w)
+    starts = windows * window_ns
+    return spread_of(
+        state, rows, test.batch.xyz, np.where(hit, at, -1), (place, window, windows.size),
+        (expected, variance), (starts, starts),
+    )
 
 
 def _historical_flow(state: Any) -> np.ndarray:

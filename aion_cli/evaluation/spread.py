@@ -152,3 +152,22 @@ def spread_of(
             per_hour(counts)[watched], per_hour(expected)[watched], per_hour(variance)[watched]
         ),
     }
+
+
+def spread_note(spread: dict[str, dict[str, Any]]) -> str | None:
+    """One line saying how the band held the test counts (``evaluate lincoln`` and
+    ``holdout`` print it beside their tables); None without a judged pair."""
+    pairs, hours = spread.get("place_windows") or {}, spread.get("hours") or {}
+    if not pairs.get("counts"):
+        return None
+    line = (
+        f"aion's flow_p10..flow_p90 band held {pairs['inside']:.1%} of the "
+        f"{pairs['counts']:,} (place, window) test counts, PIT {pairs['pit']:.3f} in band "
+        "(0.8 when calibrated)"
+    )
+    if hours.get("counts"):
+        line += (
+            f"; of the {hours['counts']:,} hours' totals, places summed as independent, "
+            f"{hours['inside']:.1%} (PIT {hours['pit']:.3f})"
+        )
+    return line
