@@ -41,37 +41,34 @@ def pair_notes(
     return notes
 
 
-def declared_gap_note(name: str, early: Manifest, part: Manifest) -> str | None:
-    """The map ``name`` (manifest ``part``: a part map, or an ordinary map) merged after the
-    map of manifest ``early``, either of them a fixed sensor's built with ``--observed``: one
-    build of all the logs counts the declared windows between the two maps' logs as observed
-    (nobody there), from where the earlier logs stopped (``recording_reach``), but neither map
-    holds them. The merge fills them from a part's ``observed_spans``
-    (:mod:`aion_cli.merge_observed`); where it cannot (a part built without ``--observed`` or
-    before the spans were stored, and every ordinary map, which keeps no spans), a note counts
-    the windows between the logs and says how to get them."""
-    from aion_cli.fixed_sensor import DECLARED
+def declared_gap_note(
+    name: str, early: Manifest, late: Manifest, spans: tuple[tuple[int, int], ...], delta: int
+) -> str | None:
+    """The ordinary map ``name`` (manifest ``late``) merged after the map of manifest
+    ``early``, with part maps' ``--observed`` spans in the merge (``spans``: every part's,
+    :func:`aion_cli.merge_observed.merged_part_spans`): one build of all the logs counts the
+    windows of ``delta`` ns between the two maps' logs that the spans cover as observed
+    (nobody there), from where the earlier logs stopped (``recording_reach``), but neither
+    map holds them, and the merge fills the time between maps only before a part map
+    (:mod:`aion_cli.merge_observed`). A note counts those windows and says how to get them;
+    None when the spans cover none of them. The ordinary maps' own spans are not stored, but
+    they cover no time between the maps: a map built with ``--observed`` observes its spans
+    whole, before and after its logs (:func:`aion_cli.log_observed.fill_start`,
+    ``fill_end``), so its time ends where they do (its ``recording_reach`` includes it)."""
+    from aion_cli.observed_spans import declared_windows
 
-    if DECLARED not in early.observation and DECLARED not in part.observation:
+    reach, first = early.recording_reach, late.counts.get("recording_first")
+    if not spans or reach is None or type(first) is not int or first <= reach + 1:
         return None
-    reach, first = early.recording_reach, part.counts.get("recording_first")
-    if reach is None or type(first) is not int or first <= reach + 1:
+    between = declared_windows(spans, [("between", reach + 1, first - 1)], delta).size
+    if not between:
         return None
-    between = first - reach - 1
-    is_part = isinstance(part.state.get("deferred"), dict)
-    how = (
-        "a part map fills only its own time (continue the part before with these logs "
-        "instead: aion build LOG --map PART.aion --observed ...)"
-        if is_part
-        else "a map fills only its own logs' time (build the logs as parts with --part "
-        "--observed and merge those, or continue the earlier map: aion build LOG --map "
-        "MAP.aion --observed ...)"
-    )
     return (
-        f"{name} was {'joined' if is_part else 'merged'}, but not exactly as one build would: "
-        "its logs or those before it were built with --observed, and one build of all of them "
-        f"counts the {between:,} window(s) between them as observed and empty where the "
-        f"declared spans cover them; {how}"
+        f"{name} was merged, but not exactly as one build would: one build of all the logs "
+        f"counts the {between:,} window(s) between its logs and those before it that the part "
+        "maps' --observed spans cover as observed and empty, and a merge fills the time "
+        "between maps only before a part map (build these logs as a part too, aion build LOG "
+        "--part --observed ..., and merge the parts)"
     )
 
 

@@ -8,7 +8,7 @@ maps with the part's logs and spans does (from the window after the earlier logs
 ``recording_reach``, to the one before the part's first, ``recording_first``). The spans it
 fills with are every part's (:func:`merged_part_spans`), as one build of all the logs takes
 every span given: an earlier part's span that reaches past its logs covers the time after
-them too."""
+them too, and a part built without ``--observed`` is filled around as the others' spans say."""
 
 from __future__ import annotations
 
@@ -36,19 +36,20 @@ def fill_declared_gap(
 ) -> int | None:
     """Declare observed in ``acc`` (the maps before the part, ``early`` the manifest of the
     latest of them) the windows between them and the part (manifest ``part``) that the
-    ``spans`` cover (every part's, :func:`merged_part_spans`; None: the part's own
-    ``observed_spans``): how many; None when the part has no spans stored to fill with (a
-    part built without ``--observed``), the maps' recording windows are unknown, or no
-    window lies between them. ``early`` None: the part is the merge's first map, and the
+    ``spans`` cover (every part's, :func:`merged_part_spans`, as one build is given them all,
+    whether or not this part was built with ``--observed``; None: the part's own
+    ``observed_spans``): how many; None when there are no spans to fill with (no part was
+    built with ``--observed``), the maps' recording windows are unknown, or no window lies
+    between them. ``early`` None: the part is the merge's first map, and the
     spans' windows before its logs count from the spans' start, as one build of its logs as a
     new map counts them (:func:`aion_cli.log_observed.fill_start`)."""
     from aion_cli.observed_spans import declared_windows
 
     delta = acc.window_ns
     first = part.counts.get("recording_first")
-    if not part.observed_spans or type(first) is not int:
-        return None
     spans = part.observed_spans if spans is None else spans
+    if not spans or type(first) is not int:
+        return None
     if early is None:
         lo: int | None = min(int(a) for a, _ in spans) // delta
     else:
@@ -77,14 +78,16 @@ def fill_declared_tail(
     (:func:`aion_cli.log_observed.fill_end`: it reaches the span's last instant, the window
     holding it left open): the end of the time they observed (ns, exclusive; the merged map
     ends at its last instant), None when there is none (the part stores no spans, its logs'
-    recording windows are unknown, or the spans end within its logs)."""
+    recording windows are unknown, or the spans end within its logs). The last part need not
+    have spans of its own: an earlier part's that reach past its logs fill after them too, as
+    in one build given them all."""
     from aion_cli.engine.mapper import Mapper
     from aion_cli.log_observed import declared_end_ns, fill_end
     from aion_cli.observed_spans import declared_windows
 
     reach, delta = last.recording_reach, acc.window_ns
     end = fill_end(spans, delta, False)
-    if not last.observed_spans or reach is None or end is None or end <= reach:
+    if not spans or reach is None or end is None or end <= reach:
         return None
     tail = declared_windows(spans, [("after", reach + 1, end)], delta)
     stop = declared_end_ns(tail, spans, delta)
@@ -98,3 +101,4 @@ def fill_declared_tail(
     mapper.set_fixed_windows(tail, bounds)
     mapper.advance(stop - 1)
     return stop
+

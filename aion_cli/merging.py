@@ -288,7 +288,11 @@ def _fold(
         interleave,
         pair_notes,
     )
-    from aion_cli.merge_observed import fill_declared_gap, fill_declared_tail, merged_part_spans
+    from aion_cli.merge_observed import (
+        fill_declared_gap,
+        fill_declared_tail,
+        merged_part_spans,
+    )
 
     spans = merged_part_spans([m.manifest for m in maps if m.head.part])
     tally = ApproximationTally(report.lineage)
@@ -309,12 +313,15 @@ def _fold(
                 tally.interleaved()
         if k == 0 or state.deferred is None:
             tally.add(state)
-        gap = declared_gap_note(m.name, maps[k - 1].manifest, m.manifest) if k else None
-        filled = None  # the declared windows before a part its spans filled
+        if k and state.deferred is None:  # the time between a map and an ordinary map
+            gap = declared_gap_note(
+                m.name, maps[k - 1].manifest, m.manifest, spans, state.window_ns
+            )
+            joins.extend([] if gap is None else [gap])
         if state.deferred is not None:
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
-            filled = fill_declared_gap(
+            filled = fill_declared_gap(  # the declared windows before the part
                 base, maps[k - 1].manifest if k else None, m.manifest, spans
             )
             if not k and filled:  # the merged map starts where they do, as one build's
@@ -324,8 +331,6 @@ def _fold(
                 acc.graph = file_graph_time(acc.graph, before)
         else:
             acc = state if acc is None else merge_maps(acc, state, consume=True)
-        if gap is not None and filled is None:
-            joins.append(gap)
         del state
         sink.advance(1)
     assert acc is not None  # a merge has one map at least

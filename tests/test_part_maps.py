@@ -309,13 +309,16 @@ def test_parts_built_with_observed_spans_merge_into_one_build_of_their_logs(
     # both start at the span's start, 00:00 (the merge had started at the first log's 08:00)
     assert merged.manifest["time_span"]["start_ns"] == whole.manifest["time_span"]["start_ns"]
     assert whole.manifest["time_span"]["start_ns"] == 1795392000 * 10**9
-    # the later part built without --observed has no spans to fill with: the note says so
+    # the later part built without --observed: one build given the earlier part's span
+    # counts the time between and after the logs by it, and so does the merge (it filled
+    # from the later part's own spans only, found none, and said 138 windows were lost)
     assert run("build", logs[1], "--part", "-o", parts[1], "-q").exit_code == 0
     report = json.loads(run("merge", *parts, "-o", tmp_path / "m.aion", "--format", "json").stdout)
-    gap = [n for n in report["notes"] if "--observed" in n]
-    assert len(gap) == 1
-    assert "p1.aion was joined, but not exactly" in gap[0]
-    assert "the 138 window(s) between them" in gap[0]
+    assert not [n for n in report["notes"] if "--observed" in n]
+    merged = load_map(tmp_path / "m.aion")
+    assert differences(whole.state, merged.state) == []
+    assert merged.manifest["counts"] == whole.manifest["counts"]
+    assert merged.manifest["time_span"] == whole.manifest["time_span"]
 
 
 def test_parts_declaring_their_own_spans_merge_into_one_build_given_every_span(
@@ -411,16 +414,18 @@ def test_parts_merged_in_two_steps_say_how_to_merge_them_exactly(tmp_path: Path)
     assert not [n for n in json.loads(result.stdout)["notes"] if "part maps" in n]
 
 
-def test_ordinary_maps_built_with_observed_spans_say_the_time_between_them_is_lost(
+def test_an_ordinary_map_after_observed_spans_says_only_the_declared_time_it_loses(
     tmp_path: Path,
 ) -> None:
-    """Ordinary maps keep no spans: their merge cannot count the declared 138 windows between
-    the logs (Monday 09:00 to Tuesday 08:00) as one build does, so their nights' rates came
-    out several times the build's, and the merge said nothing. A note says so and how. Each
-    map built with the two days' span observes it whole (to its end, as a log converted with
-    it does), so the two maps overlap, and the merge says a window both observed counts
-    twice; built with the span to its own log's end, the first leaves the time between the
-    maps to the note."""
+    """Each ordinary map built with the two days' span observes it whole (to its end, as a
+    log converted with it does), so the two maps overlap, and the merge says a window both
+    observed counts twice. Built with spans that end at its log's end, an ordinary map's
+    spans cover no time between it and the next map: one build given the same spans counts
+    none of it, and the merge equals it; the note had counted the 138 windows between the
+    logs (Monday 09:00 to Tuesday 08:00) as lost all the same, as it did for a first map whose
+    span ended at 20:00 (72, Monday 20:00 to Tuesday 08:00, though no span covers them). A
+    part map keeps its spans: an ordinary map after it, which the merge does not fill before,
+    is said to lose the windows between them the part's spans cover (66 to 20:00)."""
     logs, maps = [], []
     declared = ("--observed", "2026-11-23 00:00..2026-11-25 00:00")
     for day in (0, 1):
@@ -433,15 +438,27 @@ def test_ordinary_maps_built_with_observed_spans_say_the_time_between_them_is_lo
     report = json.loads(run("merge", *maps, "-o", tmp_path / "m.aion", "--format", "json").stdout)
     assert [n for n in report["notes"] if n.startswith("the times of m0.aion and m1.aion "
                                                         "overlap")]
-    first = ("--observed", "2026-11-23 00:00..2026-11-23 09:00")  # to its log's end
-    assert run("build", logs[0], "-o", maps[0], "-q", *first).exit_code == 0
-    assert run("build", logs[1], "-o", maps[1], "-q").exit_code == 0
-    report = json.loads(run("merge", *maps, "-o", tmp_path / "m.aion", "--format", "json").stdout)
+    one = tmp_path / "one.aion"
+    for end in ("09:00", "20:00"):  # to its log's end, and past it
+        first = ("--observed", f"2026-11-23 00:00..2026-11-23 {end}")
+        assert run("build", logs[0], "-o", maps[0], "-q", *first).exit_code == 0
+        assert run("build", logs[1], "-o", maps[1], "-q").exit_code == 0
+        merged = tmp_path / "m.aion"
+        report = json.loads(run("merge", *maps, "-o", merged, "--format", "json").stdout)
+        assert not [n for n in report["notes"] if "--observed" in n]
+        assert run("build", *logs, "-o", one, "--workers", "1", "-q", *first).exit_code == 0
+        whole = load_map(one)
+        assert load_map(merged).manifest["counts"]["windows"] == whole.manifest["counts"]["windows"]
+        assert differences(whole.state, load_map(merged).state) == []
+    # the first log a part built with the span to 20:00: its spans are stored
+    part = tmp_path / "p0.aion"
+    assert run("build", logs[0], "--part", "-o", part, "-q", *first).exit_code == 0
+    report = json.loads(run("merge", part, maps[1], "-o", merged, "--format", "json").stdout)
     gap = [n for n in report["notes"] if "--observed" in n]
     assert len(gap) == 1
     assert "m1.aion was merged, but not exactly" in gap[0]
-    assert "the 138 window(s) between them" in gap[0]
+    assert "the 66 window(s) between its logs and those before it" in gap[0]
     assert "--part --observed" in gap[0]
-    one = tmp_path / "one.aion"
-    assert run("build", *logs, "-o", one, "--workers", "1", "-q", *declared).exit_code == 0
-    assert differences(load_map(one).state, load_map(tmp_path / "m.aion").state)
+    lost = load_map(merged)
+    assert differences(whole.state, lost.state)
+    assert lost.manifest["counts"]["windows"] == whole.manifest["counts"]["windows"] - 66

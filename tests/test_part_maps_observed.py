@@ -1,0 +1,80 @@
+"""``aion merge`` of part maps built with ``--observed`` against one build of the same logs
+given every part's spans (``aion_cli/merge_observed.py``).
+
+The logs (``tests/cli/logdata.py``, a fixed sensor with a message in every window of its hour):
+Monday 08:00-09:00 and 11:00-12:00 (two logs of one part), Tuesday and Wednesday 08:00-09:00;
+windows of 10 minutes. The merge fills the time before, between and after the parts from every
+part's spans.
+"""
+
+from __future__ import annotations
+
+import json
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+from aion_cli.engine.compare import differences
+from aion_cli.mapquery import load_map
+from tests.cli.conftest import run
+from tests.cli.logdata import write_office_log
+
+HOUR_S = 3600
+MONDAY = datetime(2026, 11, 23, tzinfo=UTC)  # the logs' first day (00:00 UTC)
+LOGS = {"a0": 8, "a1": 11, "b": 32, "c": 56}  # each log's start, hours after Monday 00:00
+PARTS = {"pa": ("a0", "a1"), "pb": ("b",), "pc": ("c",)}
+
+
+def _logs(folder: Path) -> dict[str, Path]:
+    paths = {}
+    for name, hour in LOGS.items():
+        paths[name] = folder / f"{name}.mcap"
+        write_office_log(paths[name], tf=False, shift_s=(hour - 8) * HOUR_S, duration_s=HOUR_S)
+    return paths
+
+
+def _span(start_h: int, end_h: int) -> tuple[str, str]:
+    """``--observed`` for the hours ``start_h`` to ``end_h`` after Monday 00:00."""
+    def text(h: int) -> str:
+        return (MONDAY + timedelta(hours=h)).strftime("%Y-%m-%d %H:%M")
+
+    return ("--observed", f"{text(start_h)}..{text(end_h)}")
+
+
+def _build(out: Path, logs: list[Path], *options: str) -> Path:
+    result = run("build", *logs, "-o", out, "--workers", "1", "-q", *options)
+    assert result.exit_code == 0, result.stderr
+    return out
+
+
+def _merge(out: Path, parts: list[Path]) -> list[str]:
+    result = run("merge", *parts, "-o", out, "--format", "json")
+    assert result.exit_code == 0, result.stderr
+    notes: list[str] = json.loads(result.stdout)["notes"]
+    return notes
+
+
+def _windows(path: Path) -> int:
+    return int(load_map(path).manifest["counts"]["windows"])
+
+
+def test_parts_without_spans_are_filled_around_by_the_others_spans(tmp_path: Path) -> None:
+    """pa declares Monday 00:00-20:00, pb and pc declare nothing. One build given that span
+    observes Monday 00:00 to 20:00 (120 windows, pa's logs' among them; 48 after its logs,
+    12:00-20:00) and the two other logs' hours (12). The merge filled between parts only from
+    the later part's own spans: it filled nothing (84 windows) and said one build counts the
+    120 windows between pa and pb as observed, though the span covers only 48 of them."""
+    logs = _logs(tmp_path)
+    span = _span(0, 20)
+    parts = [
+        _build(tmp_path / "pa.aion", [logs["a0"], logs["a1"]], "--part", *span),
+        _build(tmp_path / "pb.aion", [logs["b"]], "--part"),
+        _build(tmp_path / "pc.aion", [logs["c"]], "--part"),
+    ]
+    one = _build(tmp_path / "one.aion", list(logs.values()), *span)
+    assert _windows(one) == 120 + 12
+    merged = tmp_path / "m.aion"
+    assert not [n for n in _merge(merged, [parts[2], parts[0], parts[1]]) if "--observed" in n]
+    whole, result = load_map(one), load_map(merged)
+    assert differences(whole.state, result.state) == []
+    assert result.manifest["counts"] == whole.manifest["counts"]
+    assert result.manifest["time_span"] == whole.manifest["time_span"]
