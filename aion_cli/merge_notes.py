@@ -72,6 +72,24 @@ def declared_gap_note(
     )
 
 
+def within_note(name: str, windows: int, delta: int) -> str:
+    """The note for a part map ``name`` in whose own logs' time other parts' ``--observed``
+    spans cover ``windows`` windows of ``delta`` ns it did not observe
+    (:func:`aion_cli.merge_observed.unfilled_within`): one build given every span counts them
+    as observed, the part closed them unobserved, and a merge cannot add a window to a day
+    the part closed."""
+    from aion_cli.fixed_sensor_text import time_text
+
+    return (
+        f"{name} was joined, but not exactly as one build would: other parts' --observed spans "
+        f"cover {windows:,} window(s) ({time_text(windows * delta)}) within its own logs' time "
+        "that it did not observe (no message, and its own spans left them out or in part), "
+        "which one build of all the logs counts as observed and empty; a merge cannot add "
+        "them to the days the part closed (build that part again giving every part's spans, "
+        "aion build LOGS --part --observed SPAN --observed SPAN ..., and merge again)"
+    )
+
+
 def interleave(end_ns: int | None, start_ns: int | None) -> bool:
     """Whether a map ending at ``end_ns`` and the next starting at ``start_ns`` share time:
     then each scored its days without the other's (merge approximation 2), whichever of

@@ -8,7 +8,13 @@ maps with the part's logs and spans does (from the window after the earlier logs
 ``recording_reach``, to the one before the part's first, ``recording_first``). The spans it
 fills with are every part's (:func:`merged_part_spans`), as one build of all the logs takes
 every span given: an earlier part's span that reaches past its logs covers the time after
-them too, and a part built without ``--observed`` is filled around as the others' spans say."""
+them too, and a part built without ``--observed`` is filled around as the others' spans say.
+
+What the merge cannot fill: the windows inside a part's own logs' time that hold no message
+and that only another part's spans cover (:func:`unfilled_within`). The part closed them
+unobserved when it was built, and its held days cannot take a window afterwards; one build
+given every span counts them as observed and empty, so the merge says so in a note (build
+that part again with every span, and the merge is exact)."""
 
 from __future__ import annotations
 
@@ -19,6 +25,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
+    from aion_cli.engine.types import I64
     from aion_cli.manifest import Manifest
 
 
@@ -102,3 +109,45 @@ def fill_declared_tail(
     mapper.advance(stop - 1)
     return stop
 
+
+def unfilled_within(
+    part: MapState, manifest: Manifest, spans: tuple[tuple[int, int], ...]
+) -> int:
+    """How many windows inside the part's own logs' time (``manifest``'s ``recording_first``
+    to ``recording_reach``) the ``spans`` (every part's, :func:`merged_part_spans`) cover for
+    time the part's state did not observe: one build given every span counts that time as
+    observed (a window without a message, wholly or for the share the spans add), the part,
+    built with its own spans only, closed it unobserved. 0 when there are none, the part's
+    recording windows are unknown, or it is not a fixed sensor's (a robot part's windows are
+    its trajectory's: spans do not add to them)."""
+    from aion_cli.engine.observation import merged_spans
+    from aion_cli.fixed_sensor_text import FIXED_SENSOR_OVER
+
+    first, reach = manifest.counts.get("recording_first"), manifest.recording_reach
+    if not spans or type(first) is not int or reach is None or reach < first:
+        return 0
+    if not manifest.observation.startswith(FIXED_SENSOR_OVER):
+        return 0
+    delta = part.window_ns
+    lo, hi = first * delta, (reach + 1) * delta
+    own = part.observation.merged_fixed()
+    s = np.clip(np.array([a for a, _ in spans], np.int64), lo, hi)
+    e = np.clip(np.array([b for _, b in spans], np.int64), lo, hi)
+    union = merged_spans(np.concatenate([own[0], s]), np.concatenate([own[1], e]))
+    windows = np.arange(first, reach + 2, dtype=np.int64) * delta  # window edges
+    gained = _covered_below(union, windows) - _covered_below(own, windows)
+    return int(np.count_nonzero(np.diff(gained)))
+
+
+def _covered_below(intervals: tuple[I64, I64], t: I64) -> I64:
+    """Per time of ``t``, how much of it the sorted disjoint ``intervals`` cover before it (ns,
+    exact): the whole intervals before it and the part of the one it falls in."""
+    starts, ends = intervals
+    if starts.size == 0:
+        return np.zeros(t.size, np.int64)
+    before = np.concatenate([[0], np.cumsum(ends - starts)]).astype(np.int64)
+    k = np.searchsorted(starts, t, side="right")  # intervals starting at or before t
+    last = np.maximum(k - 1, 0)
+    inside = np.where(k > 0, np.clip(t - starts[last], 0, ends[last] - starts[last]), 0)
+    out: I64 = before[np.maximum(k - 1, 0)] * (k > 0) + inside
+    return out

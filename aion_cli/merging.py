@@ -287,11 +287,13 @@ def _fold(
         declared_gap_note,
         interleave,
         pair_notes,
+        within_note,
     )
     from aion_cli.merge_observed import (
         fill_declared_gap,
         fill_declared_tail,
         merged_part_spans,
+        unfilled_within,
     )
 
     spans = merged_part_spans([m.manifest for m in maps if m.head.part])
@@ -319,6 +321,8 @@ def _fold(
             )
             joins.extend([] if gap is None else [gap])
         if state.deferred is not None:
+            within = unfilled_within(state, m.manifest, spans)
+            joins.extend([within_note(m.name, within, state.window_ns)] if within else [])
             base = acc if acc is not None else MapState.empty(state.config)
             before = base.graph
             filled = fill_declared_gap(  # the declared windows before the part

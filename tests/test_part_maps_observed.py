@@ -4,7 +4,8 @@ given every part's spans (``aion_cli/merge_observed.py``).
 The logs (``tests/cli/logdata.py``, a fixed sensor with a message in every window of its hour):
 Monday 08:00-09:00 and 11:00-12:00 (two logs of one part), Tuesday and Wednesday 08:00-09:00;
 windows of 10 minutes. The merge fills the time before, between and after the parts from every
-part's spans.
+part's spans; the time inside a part's own logs is the part's, and where another part's spans
+cover windows there without a message the merge says so (those windows are missing from it).
 """
 
 from __future__ import annotations
@@ -55,6 +56,36 @@ def _merge(out: Path, parts: list[Path]) -> list[str]:
 
 def _windows(path: Path) -> int:
     return int(load_map(path).manifest["counts"]["windows"])
+
+
+def test_a_window_in_a_part_only_another_parts_span_covers_is_said_to_be_missing(
+    tmp_path: Path,
+) -> None:
+    """Part pa holds Monday 08:00-09:00 and 11:00-12:00; part pb declares Monday 09:00 to
+    Tuesday 12:00. One build of the three logs given that span counts Monday 09:00-11:00 (12
+    windows, inside pa's time) as observed; pa, built without it, closed them unobserved and
+    the merge (which fills Monday 12:00 to Tuesday 08:00 from the span) lacked them without a
+    word. It says so now, naming pa and the 12 windows; pa built again with the span, the
+    merge equals the build."""
+    logs = _logs(tmp_path)
+    span = _span(9, 36)
+    pa = _build(tmp_path / "pa.aion", [logs["a0"], logs["a1"]], "--part")
+    pb = _build(tmp_path / "pb.aion", [logs["b"]], "--part", *span)
+    one = _build(tmp_path / "one.aion", [logs["a0"], logs["a1"], logs["b"]], *span)
+    merged = tmp_path / "m.aion"
+    notes = [n for n in _merge(merged, [pb, pa]) if "not exactly" in n]
+    assert len(notes) == 1
+    assert notes[0].startswith("pa.aion was joined, but not exactly as one build would: other "
+                               "parts' --observed spans cover 12 window(s) (2.0 h) within its "
+                               "own logs' time")
+    assert _windows(merged) == _windows(one) - 12
+    assert differences(load_map(one).state, load_map(merged).state)
+    _build(pa, [logs["a0"], logs["a1"]], "--part", *span)
+    assert not [n for n in _merge(merged, [pb, pa]) if "not exactly" in n]
+    whole, again = load_map(one), load_map(merged)
+    assert differences(whole.state, again.state) == []
+    assert again.manifest["counts"] == whole.manifest["counts"]
+    assert again.manifest["time_span"] == whole.manifest["time_span"]
 
 
 def test_parts_without_spans_are_filled_around_by_the_others_spans(tmp_path: Path) -> None:
