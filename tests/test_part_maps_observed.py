@@ -11,8 +11,12 @@ cover windows there without a message the merge says so (those windows are missi
 from __future__ import annotations
 
 import json
+import re
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
+
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 
 from aion_cli.engine.compare import differences
 from aion_cli.mapquery import load_map
@@ -109,3 +113,50 @@ def test_parts_without_spans_are_filled_around_by_the_others_spans(tmp_path: Pat
     assert differences(whole.state, result.state) == []
     assert result.manifest["counts"] == whole.manifest["counts"]
     assert result.manifest["time_span"] == whole.manifest["time_span"]
+
+
+_HOURS = st.tuples(st.integers(0, 70), st.integers(1, 30))  # a span's start and length
+
+
+@settings(
+    max_examples=10,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    st.lists(st.lists(_HOURS, max_size=2), min_size=3, max_size=3),
+    st.permutations(list(PARTS)),
+)
+def test_three_parts_in_any_order_with_overlapping_spans_merge_as_one_build(
+    tmp_path: Path, declared: list[list[tuple[int, int]]], order: list[str]
+) -> None:
+    """Each part declares up to two spans of whole hours (overlapping one another, the logs
+    and the other parts' time, or not), given in any order: the merge equals one build of
+    the four logs given every span, or names the parts whose own time other parts' spans
+    cover without a message, and the windows it says are missing are those the build has
+    more."""
+    folder = tmp_path / f"ex{len(list(tmp_path.iterdir()))}"
+    folder.mkdir()
+    logs = _logs(folder)
+    spans = {
+        name: [o for a, n in hours for o in _span(a, a + n)]
+        for name, hours in zip(PARTS, declared, strict=True)
+    }
+    parts = {
+        name: _build(folder / f"{name}.aion", [logs[k] for k in keys], "--part", *spans[name])
+        for name, keys in PARTS.items()
+    }
+    every = [o for name in PARTS for o in spans[name]]
+    one = _build(folder / "one.aion", list(logs.values()), *every)
+    merged = folder / "m.aion"
+    notes = [n for n in _merge(merged, [parts[name] for name in order]) if "not exactly" in n]
+    missing = sum(int(re.search(r"cover (\d+) window", n)[1]) for n in notes)  # type: ignore[index]
+    assert _windows(merged) + missing == _windows(one)
+    whole, result = load_map(one), load_map(merged)
+    event("noted" if notes else "exact")
+    if not notes:
+        assert differences(whole.state, result.state) == []
+        assert result.manifest["counts"] == whole.manifest["counts"]
+        assert result.manifest["time_span"] == whole.manifest["time_span"]
+    else:
+        assert differences(whole.state, result.state)
