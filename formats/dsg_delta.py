@@ -129,12 +129,25 @@ def _changed_records(
 def _differing_bytes(buf: U8, old: U8) -> I64 | None:
     """Every byte at which two payloads of one length differ, ascending (None: equal): the
     payloads compared 8 bytes at a time (8x fewer elements than bytes), then the bytes of the
-    words that differ, and the tail that is no whole word byte by byte."""
-    whole = len(buf) // 8 * 8
-    words = np.flatnonzero(buf[:whole].view(np.uint64) != old[:whole].view(np.uint64))
-    at = (words[:, None] * 8 + np.arange(8)).reshape(-1)
+    words that differ; the bytes before the first word and the tail that is no whole word
+    byte by byte.
+
+    The words start at the first 8-byte boundary of both payloads when they share one (a
+    payload sliced out of a decompressed chunk seldom starts on one: the stream's 1.9 MB
+    payloads start 4 bytes past it), so numpy compares aligned words: a quarter less time
+    than the same comparison of unaligned words (0.30 against 0.41 ms per 5,000-place
+    payload, issue 15)."""
+    n = len(buf)
+    lead = -buf.ctypes.data % 8
+    if lead != -old.ctypes.data % 8:
+        lead = 0  # no common boundary: one of them is unaligned whatever the start
+    lead = min(lead, n)
+    whole = lead + (n - lead) // 8 * 8
+    head = np.flatnonzero(buf[:lead] != old[:lead])
+    words = np.flatnonzero(buf[lead:whole].view(np.uint64) != old[lead:whole].view(np.uint64))
+    at = (words[:, None] * 8 + (lead + np.arange(8))).reshape(-1)
     tail = np.flatnonzero(buf[whole:] != old[whole:]) + whole
-    out: I64 = np.concatenate([at[buf[at] != old[at]], tail]).astype(np.int64)
+    out: I64 = np.concatenate([head, at[buf[at] != old[at]], tail]).astype(np.int64)
     return out if out.size else None
 
 

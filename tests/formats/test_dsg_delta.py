@@ -188,6 +188,38 @@ def test_any_changed_byte_reads_as_a_whole_read(at: int, value: int) -> None:
 
 
 @settings(max_examples=200, deadline=None)
+@given(
+    st.integers(0, 40),
+    st.integers(0, 7),
+    st.integers(0, 7),
+    st.lists(st.tuples(st.integers(0, 39), st.integers(1, 255)), max_size=6),
+)
+def test_differing_bytes_at_any_alignment(
+    n: int, shift_a: int, shift_b: int, edits: list[tuple[int, int]]
+) -> None:
+    """The bytes at which two payloads differ are every differing byte, ascending, wherever
+    each payload starts in memory (the same 8-byte boundary, another one, or none within a
+    short payload): the words are compared from a common boundary when there is one."""
+    rng = np.random.default_rng(n * 64 + shift_a * 8 + shift_b)
+    data = rng.integers(0, 256, n, dtype=np.uint8)
+    a_mem = np.zeros(n + 16, np.uint8)  # fresh arrays start on an 8-byte boundary
+    b_mem = np.zeros(n + 16, np.uint8)
+    a, b = a_mem[shift_a : shift_a + n], b_mem[shift_b : shift_b + n]
+    a[:] = data
+    b[:] = data
+    for at, delta in edits:
+        if at < n:
+            b[at] ^= delta
+    expected = np.flatnonzero(a != b)
+    got = dsg_delta._differing_bytes(a, b)
+    if expected.size == 0:
+        assert got is None
+    else:
+        assert got is not None
+        assert got.tolist() == expected.tolist()
+
+
+@settings(max_examples=200, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, len(_FIRST) - 1), st.integers(0, 255)), max_size=8))
 def test_any_changed_bytes_read_as_a_whole_read(edits: list[tuple[int, int]]) -> None:
     """A few bytes changed at once, anywhere — values of some records read in place, tags or
