@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from aion_cli.errors import ConfigError
 
@@ -197,9 +199,7 @@ def _fails_further(compression: str, data: bytes | memoryview, most: int) -> str
 def _bounded(compression: str, data: bytes | memoryview, most: int) -> bytes:
     """At most ``most`` bytes of decompressed ``data``."""
     if compression == "zstd":
-        import zstandard
-
-        reader = zstandard.ZstdDecompressor().stream_reader(bytes(data), read_across_frames=True)
+        reader = zstd_decompressor().stream_reader(bytes(data), read_across_frames=True)
         return bytes(reader.read(most))
     if compression == "lz4":
         import lz4.frame  # type: ignore[import-untyped]
@@ -210,3 +210,26 @@ def _bounded(compression: str, data: bytes | memoryview, most: int) -> bytes:
 
     bz2_obj = bz2.BZ2Decompressor()
     return bytes(bz2_obj.decompress(bytes(data), max_length=most))
+
+
+_THREAD = threading.local()
+
+
+def zstd_decompressor() -> Any:
+    """This thread's ``zstandard.ZstdDecompressor``, made once and used for every zstd chunk
+    the thread reads (:func:`decompress`, ``formats.mcap_partial``'s chunk heads).
+
+    Why: a new decompressor allocates its context and, for a streamed frame, a window buffer
+    of up to the frame's size, and the first touch of fresh pages is dear on this kind of VM
+    (docs/BENCHMARKS.md); a live Hydra log reads ~3,600 chunks an hour. Reusing one is
+    exact: each ``stream_reader`` starts a new session on it (zstandard resets the context's
+    session, not its parameters, which are the defaults here), whether the last read ended,
+    stopped early (a chunk's head) or failed on damaged data (tested). One per thread: a
+    decompressor must not serve two threads at once, and a caller may read logs from
+    several."""
+    dctx = getattr(_THREAD, "zstd", None)
+    if dctx is None:
+        import zstandard
+
+        dctx = _THREAD.zstd = zstandard.ZstdDecompressor()
+    return dctx

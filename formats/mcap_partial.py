@@ -208,9 +208,7 @@ chunk's whole compressed data (megabytes of graph)."""
 
 def _zstd_prefix(source: _Window, n: int) -> bytes:
     """At most the first ``n`` bytes the zstd data in ``source`` decompresses to."""
-    import zstandard
-
-    reader = zstandard.ZstdDecompressor().stream_reader(
+    reader = caps.zstd_decompressor().stream_reader(
         cast("IO[bytes]", source), read_size=_ZSTD_READ, read_across_frames=True, closefd=False
     )  # it calls read(size) only
     parts = []
