@@ -39,7 +39,9 @@ def input_kind(path: str | Path) -> InputKind | None:
                 return "map" if MANIFEST_NAME in archive.namelist() else None
         with p.open("rb") as fh:
             head = fh.read(HEAD_BYTES)
-    except (OSError, ValueError, zipfile.BadZipFile, AionError):  # damaged zstd, say
+    # zipfile raises NotImplementedError for a damaged "version needed to extract" field (and
+    # EOFError for some cut archives); AionError: damaged zstd, say
+    except (OSError, ValueError, EOFError, NotImplementedError, zipfile.BadZipFile, AionError):
         return None
     if p.suffix.lower() == ".sparkdsg" or (
         head.lstrip().startswith(b"{") and any(word in head for word in _GRAPH_WORDS)
@@ -64,7 +66,7 @@ def bare_zip(path: str | Path) -> tuple[str, str] | None:
         with zipfile.ZipFile(p) as archive:
             if MANIFEST_NAME in archive.namelist():
                 return None
-    except (OSError, ValueError, zipfile.BadZipFile):
+    except (OSError, ValueError, EOFError, NotImplementedError, zipfile.BadZipFile):
         return None
     return (
         f"{p} is a zip archive without an aion map manifest (no {MANIFEST_NAME} inside): "

@@ -83,6 +83,29 @@ def test_truncated_file_is_a_map_file_error_with_hint(written: Path) -> None:
     assert err.value.hint
 
 
+def test_a_damaged_zip_version_field_is_a_map_file_error(written: Path) -> None:
+    """The "version needed to extract" field of the first member's central directory record
+    damaged (zipfile raises NotImplementedError: "zip file version 20.9"; found by the long
+    fuzz run): a map that cannot be read, exit 2 through the CLI, and no kind of input to
+    :func:`input_kind`. It was an internal error (exit 1): the detector that names what a
+    file is let zipfile's NotImplementedError through."""
+    from aion_cli.formats.input_kind import bare_zip, input_kind
+    from tests.cli.conftest import run
+
+    raw = bytearray(written.read_bytes())
+    at = raw.find(b"PK\x01\x02") + 6
+    raw[at : at + 2] = (209).to_bytes(2, "little")
+    written.write_bytes(bytes(raw))
+    with pytest.raises(MapFileError, match="is not a readable aion map") as err:
+        read_manifest(written)
+    assert "zip file version 20.9" in str(err.value)
+    assert input_kind(written) is None
+    assert bare_zip(written) is None
+    result = run("predict", written, "--time", "2026-01-05 09:30")
+    assert result.exit_code == 2, result.stderr
+    assert "internal error" not in result.stderr
+
+
 def test_an_empty_file_is_said_to_be_empty(tmp_path: Path) -> None:
     """A map file of 0 bytes (an interrupted copy, a `touch`) is named empty, with the hint
     of a damaged map; it had been 'not a zip container (File is not a zip file)'."""
