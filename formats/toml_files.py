@@ -19,7 +19,12 @@ MAX_TOML_BYTES = 1 << 20
 def read_toml_text(path: Path, what: str, hint: str | None = None) -> str:
     """The UTF-8 text of ``path``, ``what`` it is (``"config file"``): :class:`ConfigError`
     with ``hint`` when it cannot be read, is larger than :data:`MAX_TOML_BYTES` or is not
-    UTF-8 text."""
+    UTF-8 text. A FIFO or a device is refused before it is opened (opening a FIFO without a
+    writer blocks for ever: ``--config`` of a named pipe hung the build)."""
+    from aion_cli.formats.raw import check_regular_input
+
+    hint_special = "pass the TOML file itself (a FIFO or device gives no file to read)"
+    check_regular_input(path, what, ConfigError, hint_special)
     try:
         with path.open("rb") as fh:
             data = fh.read(MAX_TOML_BYTES + 1)

@@ -55,3 +55,21 @@ def test_a_config_file_of_text_is_still_read(tmp_path: Path) -> None:
     result = run("build", "--config", config, "--print-config")
     assert result.exit_code == 0, result.stderr
     assert ModelConfig.from_toml_text(result.stdout).cell_size == 0.25
+
+
+@pytest.mark.parametrize("index", [0, 5])
+def test_a_fifo_as_the_settings_file_is_refused_unopened(tmp_path: Path, index: int) -> None:
+    """``--config pipe`` (a named pipe no one writes to) hung the build for ever: opening a
+    FIFO blocks until a writer comes. It is refused before it is opened, like a FIFO given as
+    a log (in a subprocess: a hang fails the test at the timeout instead of stopping it)."""
+    import os
+
+    from tests.cli.conftest import run_process
+
+    fifo = tmp_path / "model.toml"
+    os.mkfifo(fifo)
+    result = run_process(*_commands(fifo, tmp_path)[index])
+    assert result.returncode == 2, result.stderr
+    assert_one_line_error(result.stderr, f"{fifo} is a FIFO (named pipe), not a regular file")
+    assert "hint: pass the TOML file itself" in result.stderr
+    assert not (tmp_path / "x.aion").exists()
