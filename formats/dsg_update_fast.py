@@ -4,7 +4,7 @@ serialized bytes: no generic deserialisation, the payload a zero-copy view of th
 Why: a used scene graph needs only those two fields, and decoding the whole message with
 rosbags (``LogSet.decode``) costs its own pass over it. The layout, ROS 1 and ROS 2 alike::
 
-    std_msgs/Header header   ROS 1: uint32 seq, time stamp, string frame_id
+    std_msgs/Header header   ROS 1: uint32 seq, time stamp (uint32 sec, nsec), frame_id
                              ROS 2: int32 sec, uint32 nanosec, string frame_id
     uint8[] layer_contents
     uint64[] deleted_nodes
@@ -82,7 +82,7 @@ def _string(data: memoryview, p: int, cdr: bool) -> tuple[str, int]:
 def _ros1(data: memoryview) -> DsgUpdateFields:
     if len(data) < 12:
         raise ValueError("cut short")
-    sec = int.from_bytes(data[4:8], "little", signed=True)
+    sec = _u32(data, 4)  # ROS 1 time: unsigned seconds, to 2106
     nanosec = _u32(data, 8)
     frame, p = _string(data, 12, cdr=False)
     n = _u32(data, p)

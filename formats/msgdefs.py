@@ -305,6 +305,35 @@ def _check_version(ros_version: int) -> RosVersion:
     raise ValueError(f"ros_version must be 1 or 2, not {ros_version!r}")
 
 
+_TIME = "builtin_interfaces/msg/Time"
+
+
+def base_typestore(ros_version: int) -> Typestore:
+    """A new rosbags base store (``ROS1_NOETIC`` or ``ROS2_HUMBLE``), every ROS 1 ``time``
+    read and written with unsigned seconds.
+
+    ROS 1 ``time`` is two uint32 (seconds to 2106-02-07), but rosbags maps it to ROS 2's
+    ``builtin_interfaces/msg/Time``, whose seconds are an int32: a ROS 1 stamp after
+    2038-01-19 03:14:07 UTC was read 2^32 s early (TF and scene graphs of a 2040 bag in 1903)
+    and could not be written (``struct.error``). The ROS 1 store's Time has uint32 seconds
+    instead; the bytes of every stamp to 2038 and every definition text and MD5 sum are
+    unchanged (rosbags renders the type as ``time``). ROS 2's Time keeps its signed seconds.
+    """
+    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.base import Nodetype
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE)
+    if ros_version == 1:  # the store's own copy of the definitions: nothing shared changes
+        store.fielddefs[_TIME] = (
+            [],
+            [
+                ("sec", (Nodetype.BASE, ("uint32", 0))),
+                ("nanosec", (Nodetype.BASE, ("uint32", 0))),
+            ],
+        )
+    return store
+
+
 @cache
 def typestore(ros_version: RosVersion) -> Typestore:
     """A rosbags typestore (``ROS1_NOETIC`` or ``ROS2_HUMBLE`` base) with every shipped type.
@@ -312,10 +341,10 @@ def typestore(ros_version: RosVersion) -> Typestore:
     Cached per version: building it compiles serializers, so callers share one instance and
     must not register conflicting types in it.
     """
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+    from rosbags.typesys import get_types_from_msg
 
     version = _check_version(ros_version)
-    store = get_typestore(Stores.ROS1_NOETIC if version == 1 else Stores.ROS2_HUMBLE)
+    store = base_typestore(version)
     types = {}
     for name, text in _sources(version).items():
         if name not in store.fielddefs:

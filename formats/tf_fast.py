@@ -16,8 +16,9 @@ must be consumed exactly (ROS 1) or up to CDR's trailing padding, so a truncated
 differently laid out payload raises :class:`MessageDecodeError` instead of yielding values; the
 caller then falls back to the generic (rosbags) decoder.
 
-Stamps are ``sec * 10**9 + nsec`` with ``sec`` read as int32 in both encodings, exactly like
-rosbags (the generic decoder this replaces) reads a ROS 1 ``time``.
+Stamps are ``sec * 10**9 + nsec`` with ``sec`` read as uint32 in ROS 1 (``time``: to 2106)
+and int32 in ROS 2 (``builtin_interfaces/Time``), exactly like the generic decoder this
+replaces (rosbags with :func:`formats.msgdefs.base_typestore`) reads them.
 
 Frame names are de-duplicated before decoding (a log has a handful of distinct frames) and
 normalised like :func:`formats.tf.normalize_frame` (surrounding whitespace and leading ``/``
@@ -44,7 +45,7 @@ BoolA = npt.NDArray[np.bool_]
 #: Message types with the TFMessage layout (normalised ``pkg/msg/Type`` spelling).
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
 
-_HDR1 = np.dtype([("seq", "<u4"), ("sec", "<i4"), ("nsec", "<u4"), ("len", "<u4")])
+_HDR1 = np.dtype([("seq", "<u4"), ("sec", "<u4"), ("nsec", "<u4"), ("len", "<u4")])
 _HDR2 = np.dtype([("sec", "<i4"), ("nsec", "<u4"), ("len", "<u4")])
 
 

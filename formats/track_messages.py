@@ -1,7 +1,7 @@
 """Detection batches as the messages of a log: spencer ``TrackedPersons`` serialized with
 numpy (every row's ``TrackedPerson`` record built at once as a structured array, CDR or ROS 1
 layout) and ``geometry_msgs/PoseArray`` messages (numpy ``Pose`` records the same way, or
-dicts for rosbags to serialize: the empty markers, and stamps its signed seconds refuse).
+dicts for rosbags to serialize: the empty markers).
 :mod:`formats.tracks_log` writes them into logs; ``formats.detections.fast`` reads the same
 offsets back."""
 

@@ -372,11 +372,8 @@ def _write_tracks(
     marks = observed_stamps(spans)
     _check_log_times(marks, "the observed spans")
     def check(last_ns: int, what: str) -> None:
-        """The container's limit, and with a scene graph the earlier one of its DsgUpdate
-        messages, which rosbags serializes (its ``Time`` has signed seconds)."""
+        """The container's limit (a scene graph's DsgUpdate messages hold the same)."""
         check_stamps(last_ns, container, what)
-        if graph_file is not None:
-            check_stamps(last_ns, container, f"{what} with a scene graph", serialized=True)
 
     if len(marks):
         check(int(marks.max()), "the observed spans")

@@ -30,7 +30,6 @@ def _store_with_definition(
 ) -> Typestore:
     """A typestore that knows ``msgtype`` as ``definition`` defines it: the set's shared store
     for ``encoding``, or a private one when the log's definition conflicts with it."""
-    from rosbags.typesys import Stores, get_typestore
     from rosbags.typesys.base import TypesysError
 
     from aion_cli.formats import msgdefs
@@ -48,9 +47,7 @@ def _store_with_definition(
     _check_fields(types, msgtype, ros_version, idl)
     store = stores.get(encoding)
     if store is None:
-        store = stores[encoding] = get_typestore(
-            Stores.ROS1_NOETIC if ros_version == 1 else Stores.ROS2_HUMBLE
-        )
+        store = stores[encoding] = msgdefs.base_typestore(ros_version)
     try:
         store.register(types)
     except TypesysError:

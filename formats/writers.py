@@ -61,31 +61,23 @@ MAX_LOG_TIME_NS = 2**63 - 1
 """The latest log time a container stores (int64 nanoseconds: 2262-04-11)."""
 
 
-def max_stamp_ns(container: str, *, serialized: bool = False) -> int:
+def max_stamp_ns(container: str) -> int:
     """The latest header stamp the messages of ``container`` hold: ROS 1 ``time`` counts
     seconds in an unsigned 32-bit number (to 2106-02-07), ROS 2 ``builtin_interfaces/Time``
-    in a signed one (to 2038-01-19). ``serialized``: messages :meth:`LogWriter.write`
-    serializes through rosbags, whose ``Time`` holds signed seconds in every container."""
-    ros1 = container in _ROS1_CONTAINERS and not serialized
-    seconds = 2**32 - 1 if ros1 else 2**31 - 1
+    in a signed one (to 2038-01-19). Messages serialized through rosbags hold the same
+    (:func:`formats.msgdefs.base_typestore` gives ROS 1's Time unsigned seconds)."""
+    seconds = 2**32 - 1 if container in _ROS1_CONTAINERS else 2**31 - 1
     return seconds * 1_000_000_000 + 999_999_999
 
 
-def check_stamps(last_ns: int, container: str, what: str, *, serialized: bool = False) -> None:
+def check_stamps(last_ns: int, container: str, what: str) -> None:
     """:class:`LogTimeError` when ``last_ns``, the latest time ``what`` would be stamped
-    with, lies beyond what ``container``'s messages hold (:func:`max_stamp_ns`; ``serialized``
-    as there)."""
-    limit = max_stamp_ns(container, serialized=serialized)
+    with, lies beyond what ``container``'s messages hold (:func:`max_stamp_ns`)."""
+    limit = max_stamp_ns(container)
     if int(last_ns) > limit:
         from datetime import UTC, datetime
 
         day = datetime.fromtimestamp(limit // 1_000_000_000, UTC).strftime("%Y-%m-%d %H:%M:%S")
-        if serialized:
-            raise LogTimeError(
-                f"{what} reach beyond {day} UTC, the latest header stamp aion writes in these "
-                f"messages (container {container})",
-                hint="shift the times earlier (--start)",
-            )
         ros = "ROS 1" if container in _ROS1_CONTAINERS else "ROS 2"
         raise LogTimeError(
             f"{what} reach beyond {day} UTC, the latest header stamp a {ros} message holds "

@@ -96,9 +96,7 @@ def write_scene_log(
     :mod:`formats.log_zone`) for ``aion build`` to take without ``--tz``."""
     from aion_cli.formats.writers import LogWriter, check_stamps
 
-    check_stamps(
-        t0_ns + max(n_ticks - 1, 0) * dt_ns, container, "the simulated days", serialized=True
-    )
+    check_stamps(t0_ns + max(n_ticks - 1, 0) * dt_ns, container, "the simulated days")
     idle_ticks = max(round(tf_idle_s * 1e9 / dt_ns), 1)
     det_ticks = np.union1d(obs.tick, np.arange(0, n_ticks, idle_ticks)).astype(np.int64)
     det_start = np.searchsorted(obs.tick, det_ticks, side="left")

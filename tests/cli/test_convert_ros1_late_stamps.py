@@ -1,8 +1,9 @@
 """ROS 1 stamps count unsigned 32-bit seconds (to 2106): ``aion convert`` writes PoseArray
 logs past 2038-01-19 03:14:07 UTC into a ``.bag`` or an ``mcap-ros1`` container. Before, such a
 convert failed with "error: internal error: 'i' format requires ..." (the messages went
-through rosbags, whose ``Time`` has signed seconds). A scene graph (``--graph``), which still
-goes through rosbags, is refused up front with the span aion writes, not an internal error."""
+through rosbags, whose ``Time`` has signed seconds). A scene graph (``--graph``), which goes
+through rosbags, was refused up front; rosbags' ROS 1 ``Time`` now has unsigned seconds
+(:func:`formats.msgdefs.base_typestore`), so it is written too and the log builds."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.cli.conftest import assert_one_line_error, run
+from tests.cli.conftest import run, run_json
 
 GRAPH = Path(__file__).resolve().parents[1] / "data" / "dsg" / "apartment_dsg.json"
 T0_S = 2_208_988_800  # 2040-01-01 00:00:00 UTC: beyond 2**31 - 1 seconds
@@ -72,15 +73,24 @@ def test_pose_arrays_past_2038_are_written_in_ros1_logs(
 
 
 @pytest.mark.parametrize(("container", "suffix"), [("bag", ".bag"), ("mcap-ros1", ".mcap")])
-def test_a_scene_graph_past_2038_is_refused_up_front(
+def test_a_scene_graph_past_2038_is_written_in_ros1_logs(
     container: str, suffix: str, tmp_path: Path
 ) -> None:
-    """The DsgUpdate is serialized by rosbags (signed seconds): one line naming 2038, exit
-    2, nothing written."""
+    """The DsgUpdate's ROS 1 header (seq, uint32 sec, nsec) holds the first row's time, and
+    the log builds a map of the graph's places from 2040 (it was refused: "the tracks with a
+    scene graph reach beyond 2038-01-19 03:14:07 UTC")."""
+
     tracks = _write_csv(tmp_path / "late.csv")
     log = tmp_path / f"late{suffix}"
     result = run("convert", tracks, "-o", log, "--container", container, "--graph", GRAPH,
-                 "--message-type", "geometry_msgs/msg/PoseArray")
-    assert result.exit_code == 2
-    assert_one_line_error(result.stderr, "with a scene graph", "2038-01-19 03:14:07 UTC")
-    assert not log.exists()
+                 "--message-type", "geometry_msgs/msg/PoseArray", "-q")
+    assert result.exit_code == 0, result.stderr
+    graphs = _raw_messages(log, "/hydra/backend/dsg")
+    assert graphs
+    seq, sec, nsec = struct.unpack_from("<III", graphs[0][1])
+    assert (seq, sec, nsec) == (0, ROWS[0][0], 0)
+    assert graphs[0][0] == ROWS[0][0] * 10**9
+    report = run_json("build", log, "-o", tmp_path / "late.aion", "--format", "json", "-q")
+    assert report["time_span"]["start_ns"] == ROWS[0][0] * 10**9
+    assert report["graph"]["decoded"] == len(graphs)
+    assert report["detections"]["used"] == len(ROWS)

@@ -26,7 +26,8 @@ frames = st.text(alphabet="abcxyz_/ 019é", min_size=0, max_size=17)
 
 @st.composite
 def transforms(draw: st.DrawFn, ros: int) -> dict[str, Any]:
-    sec = draw(st.integers(-(2**31), 2**31 - 1))  # rosbags: int32 sec in ROS 1 too
+    # ROS 1 time: uint32 seconds (to 2106); ROS 2 builtin_interfaces/Time: int32
+    sec = draw(st.integers(0, 2**32 - 1) if ros == 1 else st.integers(-(2**31), 2**31 - 1))
     return {
         "header": {
             "stamp": {"sec": sec, "nanosec": draw(st.integers(0, 2**32 - 1))},

@@ -35,19 +35,33 @@ def test_a_start_with_an_impossible_field_names_it(tmp_path: Path, start: str, r
     assert not (tmp_path / "s.mcap").exists()
 
 
-@pytest.mark.parametrize("container", ["bag", "mcap-ros1", "mcap"])
-def test_a_start_past_2038_is_refused_in_every_container(tmp_path: Path, container: str) -> None:
-    """The scene graphs, detections and TF carry header stamps whose seconds aion serializes
-    signed (int32: to 2038-01-19 03:14:07 UTC) in every container. A 2099 start in a .bag or
-    mcap-ros1 log was an internal error (struct.error, exit 1); an .mcap one hinted at a ROS 1
-    log, which failed the same way. Each is refused before anything is written."""
-    out = tmp_path / ("s.bag" if container == "bag" else "s.mcap")
-    args = ("--start", "2099-01-01T08:00", "--days", "0.05", "--container", container)
+def test_a_start_past_2038_is_refused_in_a_ros2_log_only(tmp_path: Path) -> None:
+    """ROS 2 header stamps hold signed 32-bit seconds (to 2038-01-19 03:14:07 UTC): a 2099
+    start in an .mcap log is refused before anything is written, the hint naming a ROS 1 log,
+    whose ``time`` holds unsigned seconds (to 2106). In a .bag or mcap-ros1 log it was refused
+    too (rosbags serialized ROS 1's Time with signed seconds; before that, an internal
+    struct.error): now the log is written and builds a map of 2099 from its scene graphs."""
+    import json
+
+    from tests.cli.conftest import run_json
+
+    args = ("--start", "2099-01-05T09:00", "--days", "0.02")
+    out = tmp_path / "s.mcap"
     result = run("simulate", "-o", out, *args)
     assert result.exit_code == 2, result.stderr
     assert_one_line_error(result.stderr, "reach beyond 2038-01-19 03:14:07 UTC")
-    assert "ROS 1 log" not in result.stderr
+    assert "hint: write a ROS 1 log" in result.stderr
     assert not out.exists()
+    for container, name in (("bag", "s.bag"), ("mcap-ros1", "s1.mcap")):
+        log = tmp_path / name
+        result = run("simulate", "-o", log, *args, "--container", container, "-q")
+        assert result.exit_code == 0, result.stderr
+        start = json.loads((tmp_path / f"{name}.truth.json").read_text())["start_ns"]
+        report = run_json("build", log, "-o", tmp_path / f"{name}.aion", "--format", "json")
+        assert report["time_span"]["start_ns"] == start > (2**32 - 2**30) * 10**9
+        assert report["graph"]["decoded"] > 0
+        assert report["detections"]["used"] > 0
+        assert report["detections"]["dropped"].get("no_transform", 0) == 0
 
 
 def test_a_start_with_fractional_seconds_keeps_them(tmp_path: Path) -> None:
