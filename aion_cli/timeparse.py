@@ -32,6 +32,7 @@ from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from aion_cli.engine.temporal.zones import suggest_zone, zone_key, zone_of
 from aion_cli.errors import ConfigError, InputError
+from aion_cli.time_numbers import refuse_misread_number
 
 EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 NS_PER_S = 1_000_000_000
@@ -390,7 +391,7 @@ def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
         return None
     number, unit = match.groups()
     if unit is None and not text.startswith("@"):
-        _refuse_compact_date(text)
+        refuse_misread_number(text)
     try:
         value = Decimal(number)
     except InvalidOperation:  # pragma: no cover - the regex admits only numbers
@@ -405,23 +406,6 @@ def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
             "append 'ns' for nanoseconds (e.g. 1795420200000000000ns)",
         )
     return int(value * NS_PER_S)
-
-
-def _refuse_compact_date(text: str) -> None:
-    """:class:`TimeFormatError` for eight digits that are a date in ISO 8601's basic form
-    (``20261123``): read as UNIX seconds they were a time in 1970 without a word, while
-    ``20261123T0830`` is read as the date it is."""
-    if not re.fullmatch(r"(19|2[0-2])\d{2}(0[1-9]|1[0-2])(0[1-9]|[12]\d|3[01])", text):
-        return
-    try:
-        day = date(int(text[:4]), int(text[4:6]), int(text[6:]))
-    except ValueError:  # 20260231: no date, UNIX seconds after all
-        return
-    raise TimeFormatError(
-        f"{text!r} is the date {day.isoformat()} in ISO 8601's basic form, or "
-        f"{format_ns(int(text) * NS_PER_S, resolve_zone('UTC'))} as UNIX seconds",
-        f'write "{day.isoformat()}" for the date, "@{text}" for UNIX seconds',
-    )
 
 
 def _parse_relative(text: str, zone: Zone, current: datetime) -> int | None:

@@ -400,6 +400,25 @@ def test_eight_digits_that_are_a_date_are_refused_naming_both_readings() -> None
     assert parse_time("20261123T0830", UTCZ, NOW) == ns(2026, 11, 23, 8, 30)
 
 
+@pytest.mark.parametrize(("text", "stamp"), [("-5", "23:59:55"), ("-90.5", "23:58:29")])
+def test_a_negative_number_without_a_unit_is_refused_naming_the_relative_forms(
+    text: str, stamp: str
+) -> None:
+    """``--time -5`` was read as UNIX seconds, 1969-12-31 23:59:55 UTC, and predicted for
+    1969 (only a note said it lay 56 years before the map), where "-5h" or "-5m" (a time
+    before now, as ``-30m`` is) lacked its unit. ``@-5`` still says UNIX seconds, and
+    ``-5s`` is five seconds ago."""
+    with pytest.raises(TimeFormatError) as info:
+        parse_time(text, BERLIN, NOW)
+    assert f"reads as UNIX seconds before 1970 (1969-12-31 {stamp}+00:00)" in info.value.message
+    assert f'"{text}h", "{text}m" or "{text}s"' in (info.value.hint or "")
+    assert f'"@{text}"' in (info.value.hint or "")
+    seconds = float(text)
+    assert parse_time(f"@{text}", BERLIN, NOW) == round(seconds * S)
+    assert parse_time(f"{text}s", BERLIN, NOW) == to_ns(NOW) + round(seconds * S)
+    assert parse_time("0", BERLIN, NOW) == 0
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
