@@ -206,6 +206,11 @@ def command(
             for report in reports:
                 print_map(report)
         return
+    _refuse_options(  # aion build LOG --nav-layer takes a log's layer; info does not show it
+        given, tuple(name for name in given if name != "--nav-layer"), "logs",
+        "--nav-layer describes a scene-graph file (aion info GRAPH_FILE --nav-layer NAME) and "
+        "chooses a log's layer in aion build LOG --nav-layer NAME",
+    )
     if suggest_topic is not None:
         click.echo(suggest(list(logs), log_format, suggest_topic), nl=False)
         return
@@ -231,18 +236,22 @@ def rate_text(hz: float) -> str:
     return small_num(hz)
 
 
-def _refuse_options(given: dict[str, bool], applies: tuple[str, ...], what: str) -> None:
+def _refuse_options(
+    given: dict[str, bool], applies: tuple[str, ...], what: str, others: str | None = None
+) -> None:
     """An :class:`InputError` naming the options given that do nothing for ``what`` (only
-    ``applies`` do): an option silently ignored looks as if it had been taken."""
+    ``applies`` do): an option silently ignored looks as if it had been taken. ``others``:
+    what the other options are for (default: reading logs)."""
     from aion_cli.errors import InputError
 
     ignored = [name for name, on in given.items() if on and name not in applies]
     if ignored:
+        if others is None:
+            others = ("the others read logs" if what != "a scene-graph file" else
+                      "--verify checks maps and logs, the others read logs")
         raise InputError(
             f"{', '.join(ignored)} {'does' if len(ignored) == 1 else 'do'} not apply to {what}",
-            hint=f"for {what} only {', '.join(applies)} applies"
-            + ("; the others read logs" if what != "a scene-graph file" else "; --verify "
-               "checks maps and logs, the others read logs"),
+            hint=f"for {what} only {', '.join(applies)} applies; {others}",
         )
 
 

@@ -307,7 +307,8 @@ def test_days_scored_are_the_map_s_days_not_an_entry_s_sum(sample_map: Path) -> 
 
 def test_options_that_do_not_apply_are_refused(office: Office, tmp_path: Path) -> None:
     """Options for logs given with a map or a scene-graph file did nothing, exit 0; --verify
-    with a scene-graph file too. They are refused, naming what would apply."""
+    with a scene-graph file too, and --nav-layer (for scene-graph files) with a log. They are
+    refused, naming what would apply."""
     from tests.cli.logdata import save_graph_file
 
     graph = save_graph_file(tmp_path / "plain.json")
@@ -316,12 +317,14 @@ def test_options_that_do_not_apply_are_refused(office: Office, tmp_path: Path) -
         ([office.map, "--nav-layer", "99"], "--nav-layer does not apply to a map"),
         ([office.map, "--log-format", "mcap"], "--log-format does not apply to a map"),
         ([graph, "--verify"], "--verify does not apply to a scene-graph file"),
+        ([office.log, "--nav-layer", "99"], "--nav-layer does not apply to logs"),
     ):
         result = run("info", *args)
         assert result.exit_code == 2, result.stderr
         assert_one_line_error(result.stderr, fragment)
     assert run("info", office.map, "--verify").exit_code == 0
     assert run("info", graph, "--nav-layer", "places").exit_code == 0
+    assert run("info", office.log, "--tz", "UTC", "--verify").exit_code == 0
 
 
 def test_a_map_of_before_exposure_shows_the_whole_windows_it_builds_with(
