@@ -61,7 +61,7 @@ def load_map(
     and refused as ``writable`` (:class:`~aion_cli.errors.MapFileError` naming the full map it
     was made from)."""
     from aion_cli.engine.state import MapState
-    from aion_cli.formats.mapfile import open_map
+    from aion_cli.formats.mapfile import check_writable_version, open_map
     from aion_cli.query_only import query_only_of, refuse_learning
 
     path = Path(path)  # a str from a script reads as its path
@@ -71,6 +71,7 @@ def load_map(
         meta = _state_meta(path, manifest)
         query_only = query_only_of(manifest)
         if writable:
+            check_writable_version(manifest.get("version"))
             refuse_learning(path, query_only, "continued or merged")
         # a query-only map (aion compact) has no Fourier sums: it is read as queries read maps
         forecast_only = forecast_only or query_only is not None

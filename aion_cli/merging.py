@@ -222,6 +222,7 @@ def _target_graph(
 
 def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
     """Hash every map file and read its head (:func:`aion_cli.mapquery.load_map_head`)."""
+    from aion_cli.formats.mapfile import check_writable_version
     from aion_cli.mapquery import load_map_head
     from aion_cli.provenance import provenance
     from aion_cli.query_only import refuse_learning
@@ -240,6 +241,7 @@ def _read(paths: list[Path], sink: ProgressSink) -> list[_Input]:
         first_of[file.sha256] = p
         with naming_map(p):
             head = load_map_head(p)
+            check_writable_version(head.manifest.get("version"))
         manifest = Manifest.from_dict(head.manifest)
         refuse_learning(p, manifest.query_only, "merged")
         maps.append(_Input(p, head, manifest, file, str(p) if p.name in shared else ""))

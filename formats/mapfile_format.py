@@ -102,3 +102,20 @@ def check_version(text: object) -> tuple[int, int]:
             hint="rebuild the map from its logs with `aion build`",
         )
     return major, minor
+
+
+def check_writable_version(text: object) -> None:
+    """Refuse to continue or merge a map of a newer minor of our major.
+
+    Queries read such a map (:func:`check_version`: they ignore what they do not know), but a
+    continued or merged map is written in this aion's version, without whatever the newer
+    one stored: it would be dropped without a word."""
+    major, minor = check_version(text)
+    if (major, minor) > MAP_VERSION:
+        raise MapVersionError(
+            f"map format {major}.{minor} is newer than this aion writes "
+            f"({format_version()}): continuing or merging it would drop what the newer "
+            "aion stored",
+            hint="upgrade aion (pip install -U aion) to continue or merge this map; "
+            "predict, plan, export and info read it as it is",
+        )
