@@ -55,6 +55,28 @@ class RawMessage:
     encoding: Encoding
 
 
+_new_object = object.__new__
+
+
+def raw_message(
+    topic: str, msgtype: str, log_time_ns: int, data: bytes, encoding: Encoding
+) -> RawMessage:
+    """``RawMessage(topic, msgtype, log_time_ns, data, encoding)``, the same instance (equal,
+    same hash and repr), made without the frozen dataclass's ``__init__``, which sets each
+    of the five fields through ``object.__setattr__``: the fields go straight into the new
+    instance's ``__dict__`` (a frozen dataclass refuses attribute assignment, not its
+    ``__dict__``). For readers' per-message loops (issue 15: about a third of the time of
+    ``RawMessage(...)``, ~1 µs less per message of a build)."""
+    msg: RawMessage = _new_object(RawMessage)
+    fields = msg.__dict__
+    fields["topic"] = topic
+    fields["msgtype"] = msgtype
+    fields["log_time_ns"] = log_time_ns
+    fields["data"] = data
+    fields["encoding"] = encoding
+    return msg
+
+
 class Unread(bytes):
     """The payload of a message a reader yielded without reading it (:data:`UNREAD`)."""
 
