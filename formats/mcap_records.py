@@ -22,6 +22,7 @@ import struct
 from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
+from operator import itemgetter
 from typing import IO
 
 from aion_cli.formats import limits as caps
@@ -243,12 +244,13 @@ def chunk_messages(
                 out.append((log_time, channel_id, buf[body + MESSAGE_PREFIX : pos]))
     if pos != end:
         raise caps.ChunkError("its records overrun the chunk")
-    out.sort(key=_first)
+    out.sort(key=_first)  # stable: ties keep record order
     return out, big, seen
 
 
-def _first(item: tuple[int, int, bytes]) -> int:
-    return item[0]
+_first = itemgetter(0)
+"""A message's log time (the sort key of :func:`chunk_messages`; a C getter, not a Python
+function call per message)."""
 
 
 def chunk_records(buf: bytes) -> Iterator[tuple[int, int, int]]:
