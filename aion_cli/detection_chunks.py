@@ -42,25 +42,28 @@ def chunks(
     until it is fed) have come since the last job, wherever the graphs fall: a scene graph
     every few messages cuts the Mapper's pieces, not the decoding."""
     chunk = Chunk()
-    nbytes = 0
+    append = chunk.append
+    count = nbytes = 0  # the chunk's messages (len(chunk)) and payload bytes
     job_count = job_bytes = 0
-    for msg in messages:
-        job_bytes += len(msg.data)
+    for msg in messages:  # per message: one len() and a few int operations
+        length = len(msg.data)
+        job_bytes += length
         if msg.topic in graph_topics:
             chunk.closes = job_count >= size or job_bytes >= max_bytes
             yield chunk, msg
-            nbytes = 0
         else:
-            chunk.append(msg)
-            nbytes += len(msg.data)
+            append(msg)
+            count += 1
+            nbytes += length
             job_count += 1
-            if len(chunk) < size and nbytes < max_bytes:
+            if count < size and nbytes < max_bytes:
                 continue
             yield chunk, None  # closes
-            nbytes = 0
+        count = nbytes = 0
         if chunk.closes:
             job_count = job_bytes = 0
         chunk = Chunk()
+        append = chunk.append
     if chunk:
         yield chunk, None
 

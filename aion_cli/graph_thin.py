@@ -31,11 +31,24 @@ def thin_graphs(
     a graph: the next whole graph logged in the same window (``feed.window_ns``; a shard of a
     parallel build starts at a window, so one pass and shards choose alike) is used too. Only
     the used graphs and those looked at for a stand-in are read for their flag, once: each
-    goes on with what was read of it (:meth:`GraphFeed.is_whole`), which its decoding uses."""
+    goes on with what was read of it (:meth:`GraphFeed.is_whole`), which its decoding uses.
+    When every graph is used, ``messages`` itself (no generator step per message)."""
     used = feed.used
     if used is None or bool(used.all()):
-        yield from messages
-        return
+        return messages
+    return _thinned(feed, messages, graph_topics, progress, logset, used.tolist())
+
+
+def _thinned(
+    feed: GraphFeed,
+    messages: Iterator[RawMessage],
+    graph_topics: set[str],
+    progress: ProgressSink,
+    logset: Any,
+    flags: list[bool],
+) -> Iterator[RawMessage]:
+    """:func:`thin_graphs` when the schedule leaves graphs out (``flags``: used or not, per
+    graph message in order)."""
     from aion_cli.formats.raw import Unread
 
     window_ns = feed.window_ns
@@ -43,7 +56,6 @@ def thin_graphs(
     def window(msg: RawMessage) -> int:
         return msg.log_time_ns // window_ns if window_ns > 0 else 0
 
-    flags = used.tolist()
     k = 0
     wanted: int | None = None  # the window of a used partial update, awaiting its stand-in
     for msg in messages:

@@ -296,10 +296,14 @@ class TimeCheck:
 
     def filter(self, messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
         """``messages`` without those out of range and without the strays (each stray
-        ``(topic, log time)`` is dropped as often as it was counted)."""
+        ``(topic, log time)`` is dropped as often as it was counted); ``messages`` itself
+        when there is nothing to drop (:attr:`clean`), without a generator step per
+        message."""
         if self.clean:
-            yield from messages
-            return
+            return messages
+        return self._filtered(messages)
+
+    def _filtered(self, messages: Iterator[RawMessage]) -> Iterator[RawMessage]:
         pending = Counter(self._pending)  # a fresh copy: the log may be read several times
         # the representable range, or a time shard's part of it
         lo, hi = self.limits if self.limits is not None else (MIN_TIME_NS, MAX_TIME_NS + 1)
