@@ -69,6 +69,19 @@ def direction_bins(heading: npt.ArrayLike, bins: int) -> I64:
     return bin_of(theta, bins)
 
 
+def add_rows(array: F64, rows: I64 | slice, values: npt.NDArray[Any]) -> None:
+    """``array[rows] += values`` for distinct ``rows`` (or a slice): the same sums, one per
+    row. With an index array the rows are gathered by ``take``, added to in place and put
+    back: ``array[rows] += values`` gathers them by fancy indexing, three times slower at the
+    ~60 rows of a window's detections (issue 15: ~2 against ~7 µs, six times per batch)."""
+    if isinstance(rows, slice):
+        array[rows] += values
+        return
+    part = array.take(rows, axis=0)
+    part += values
+    array[rows] = part
+
+
 @dataclass
 class EntryStore:
     """Struct of arrays over entries: ``n`` row slots in use (live or ``FREE``) of ``capacity``.
@@ -303,32 +316,32 @@ class EntryStore:
         every = bool(directed.all())
         flat_dir = local * b + bins if every else local[directed] * b + bins[directed]
         hist = np.bincount(flat_dir, minlength=m * b).reshape(m, b).astype(np.float64)
-        self.counts[target] += hist
-        self.window_counts[target] += hist
+        add_rows(self.counts, target, hist)
+        add_rows(self.window_counts, target, hist)
         self.window_mark[rows] = True
         if not every:
             undirected = np.bincount(local[~directed], minlength=m).astype(np.float64)
-            self.nodir[target] += undirected
-            self.window_nodir[target] += undirected
+            add_rows(self.nodir, target, undirected)
+            add_rows(self.window_nodir, target, undirected)
         if heading is not None and flat_dir.size:
             theta = heading if every else heading[directed]
             for name, part in (("heading_cos", np.cos(theta)), ("heading_sin", np.sin(theta))):
-                getattr(self, name)[target] += np.bincount(
+                add_rows(getattr(self, name), target, np.bincount(
                     flat_dir, weights=part, minlength=m * b
-                ).reshape(m, b)
+                ).reshape(m, b))
         sp = speed if every else speed[directed]
         has_speed = np.isfinite(sp)
         if has_speed.all() and flat_dir.size:  # every sample: the histogram counts them
-            self.speed_sum[target] += np.bincount(flat_dir, weights=sp, minlength=m * b).reshape(
-                m, b
-            )
-            self.speed_n[target] += hist
+            add_rows(self.speed_sum, target, np.bincount(
+                flat_dir, weights=sp, minlength=m * b
+            ).reshape(m, b))
+            add_rows(self.speed_n, target, hist)
         elif has_speed.any():
             idx = flat_dir[has_speed]
-            self.speed_sum[target] += np.bincount(
+            add_rows(self.speed_sum, target, np.bincount(
                 idx, weights=sp[has_speed], minlength=m * b
-            ).reshape(m, b)
-            self.speed_n[target] += np.bincount(idx, minlength=m * b).reshape(m, b)
+            ).reshape(m, b))
+            add_rows(self.speed_n, target, np.bincount(idx, minlength=m * b).reshape(m, b))
 
     def window_totals(self, rows: I64) -> F64:
         """Detections of ``rows`` in the open window (directed + undirected)."""

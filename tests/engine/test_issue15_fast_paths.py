@@ -295,3 +295,26 @@ def test_node_index_memo_answers_as_a_fresh_sort(ops: list[tuple[str, int]]) -> 
         order = np.argsort(fresh_ids)
         assert ids.tobytes() == fresh_ids[order].tobytes()
         assert rows.tobytes() == fresh_rows[order].tobytes()
+
+
+def test_add_rows_equals_fancy_in_place_addition() -> None:
+    """``entries.add_rows``: ``array[rows] += values`` for distinct rows in any order (2-D and
+    1-D) and for a slice, bit for bit; rows not named are untouched."""
+    from aion_cli.engine.entries import add_rows
+
+    rng = np.random.default_rng(7)
+    for shape in ((50, 8), (50,)):
+        base = rng.normal(size=shape) * 1e3
+        rows = rng.permutation(50)[:17]
+        values = rng.normal(size=(17, *shape[1:]))
+        got, want = base.copy(), base.copy()
+        add_rows(got, rows, values)
+        want[rows] += values
+        assert got.tobytes() == want.tobytes()
+        untouched = np.setdiff1d(np.arange(50), rows)
+        assert got[untouched].tobytes() == base[untouched].tobytes()
+        whole = rng.normal(size=(20, *shape[1:]))
+        got, want = base.copy(), base.copy()
+        add_rows(got, slice(0, 20), whole)
+        want[:20] += whole
+        assert got.tobytes() == want.tobytes()
