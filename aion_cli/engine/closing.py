@@ -129,7 +129,10 @@ def _close_one(state: MapState, w0: int, delta: int) -> None:
             apply_binds(state, plan)
             count_rows = ent.window_rows()  # the counts moved with the cells
         if share > 0.0:  # every entry observed: nothing but the counts to list
-            counts = np.column_stack([ent.window_counts[count_rows], ent.window_nodir[count_rows]])
+            # take, not fancy indexing: the same rows, a few µs less per window (issue 15)
+            counts = np.column_stack(
+                [ent.window_counts.take(count_rows, axis=0), ent.window_nodir.take(count_rows)]
+            )
             none = np.zeros(0, np.int64)
             state.record_window(w0, True, none, count_rows, counts, np.zeros(0), share)
         else:
