@@ -318,3 +318,19 @@ def test_add_rows_equals_fancy_in_place_addition() -> None:
         add_rows(got, slice(0, 20), whole)
         want[:20] += whole
         assert got.tobytes() == want.tobytes()
+
+
+def test_window_count_columns_equals_the_column_stack() -> None:
+    """``EntryStore.window_count_columns``: the open window's per-bin counts and undirected
+    count of any rows (none, some in any order, all) as ``column_stack`` of fancy gathers
+    gives them, bit for bit."""
+    store = _store(100, 8)
+    rng = np.random.default_rng(3)
+    store.window_counts[:100] = rng.integers(0, 5, (100, 8))
+    store.window_nodir[:100] = rng.integers(0, 3, 100)
+    for rows in (np.zeros(0, np.int64), np.array([5, 3, 99, 0]), np.arange(100)):
+        got = store.window_count_columns(rows)
+        want = np.column_stack([store.window_counts[rows], store.window_nodir[rows]])
+        assert got.shape == want.shape
+        assert got.dtype == want.dtype
+        assert got.tobytes() == want.tobytes()
