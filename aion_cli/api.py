@@ -47,11 +47,11 @@ from aion_cli.pinned_file import PinnedFile
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.state import MapState
+    from aion_cli.engine.time_text import Zone
     from aion_cli.evaluation.holdout import HoldoutResult
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.prediction_series import SeriesTable
-    from aion_cli.timeparse import Zone
 
 Loaded = Union["LoadedMap", MapSource]
 """What a :class:`Map` is made around: a map read (or built in memory), or a file's source."""
@@ -215,8 +215,8 @@ class Map(Generic[Report]):
         """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
         ``aion predict`` with ``--layer``, ``--node`` (``nodes``: ids, or one id), ``--at``
         (``"x,y"`` or numbers) and ``--top``."""
+        from aion_cli.engine.time_text import format_ns
         from aion_cli.predictions import LAYERS, hour_flags, predicted_records
-        from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")
@@ -264,10 +264,10 @@ class Map(Generic[Report]):
         :meth:`predict` at that time."""
         from dataclasses import replace
 
+        from aion_cli.engine.time_text import format_ns
         from aion_cli.prediction_series import described, predict_series, series_times
         from aion_cli.predictions import LAYERS, hour_flags
         from aion_cli.time_steps import parse_step
-        from aion_cli.timeparse import format_ns
 
         if layer not in LAYERS:
             raise InputError(f"unknown layer {layer!r}", hint=f"one of {', '.join(LAYERS)}")

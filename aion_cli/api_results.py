@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
+    from aion_cli.engine.time_text import Zone
     from aion_cli.routes import Route, Routes
-    from aion_cli.timeparse import Zone
 
 MEMORY = "<memory>"
 """What names a map made in memory (``Map.from_state``, not saved yet) where a file's path
@@ -159,7 +159,7 @@ class Plan:
         ``zone`` (``aion plan`` prints its :meth:`to_dict`); ``hour_observed``: the
         departure's (``predictions.hour_flags``)."""
         from aion_cli.engine.node_ids import node_label
-        from aion_cli.timeparse import format_ns
+        from aion_cli.engine.time_text import format_ns
 
         depart = routes.depart_ns
         if depart is None:
@@ -231,7 +231,7 @@ def departure_rows(
     ``observed`` (``predictions.hour_flags`` of the departures), also whether any day
     observed the departure's hour (``hour_observed``; where not, its flows are
     extrapolated)."""
-    from aion_cli.timeparse import format_ns
+    from aion_cli.engine.time_text import format_ns
 
     rows = [
         {

@@ -9,8 +9,8 @@ from datetime import datetime, tzinfo
 from typing import Any
 
 from aion_cli.api_checks import TimeLike, keywords_checked, time_value, zone_name
+from aion_cli.engine.time_text import Zone
 from aion_cli.errors import InputError
-from aion_cli.timeparse import Zone
 
 
 @keywords_checked
@@ -20,7 +20,8 @@ def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
     such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default UTC, None: the
     machine's) or integer nanoseconds (one below 10^16, which would lie in 1970's first
     months, is refused as likely seconds); outside 1900 .. 2261 is an ``InputError``."""
-    from aion_cli.timeparse import Zone, check_range, parse_time, resolve_zone
+    from aion_cli.engine.time_text import Zone
+    from aion_cli.timeparse import check_range, parse_time, resolve_zone
     from aion_cli.timeparse import to_ns as datetime_ns
 
     if not isinstance(zone, Zone):
@@ -73,7 +74,8 @@ def query_time(
     the machine's), and that zone; ``after_ns``: the start of the span whose end ``time`` is,
     which a clock alone, a day word or a relative string counts from (``("2026-11-23 08:00",
     "10:00")`` is two hours, as ``--leave`` reads it)."""
-    from aion_cli.timeparse import from_ns, parse_time
+    from aion_cli.engine.time_text import from_ns
+    from aion_cli.timeparse import parse_time
 
     zone = query_zone(tz, default)
     if after_ns is not None and isinstance(time, str):

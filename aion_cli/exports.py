@@ -22,8 +22,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aion_cli.engine.time_text import Zone
 from aion_cli.formats.outputs import Staged, cannot_write
-from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
     from aion_cli.export_stale import StaleFrames
@@ -131,7 +131,7 @@ def check_out_dir(out_dir: Path) -> None:
 
 
 def frame_name(t_ns: int | None) -> str:
-    from aion_cli.formats.mcap_records import utc_of  # cut to the second, not float-rounded
+    from aion_cli.engine.time_text import utc_of  # cut to the second, not float-rounded
 
     if t_ns is None:
         return "historical"

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import I64
 from aion_cli.fixed_sensor_text import (
     DECLARED,
@@ -30,7 +31,7 @@ from aion_cli.fixed_sensor_text import (
     share_text,
     silent_advice,
 )
-from aion_cli.log_times import TimeCheck, iso
+from aion_cli.log_times import TimeCheck
 from aion_cli.observed_spans import declared_windows, observed_note
 
 if TYPE_CHECKING:
@@ -99,7 +100,7 @@ def fixed_sensor_windows(
         first = int(recorded[~inside][0]) * delta
         notes.append(
             f"{outside:,} recorded window(s) outside the time of the topics aion uses are "
-            f"not taken as observed (first: {iso(first)})"
+            f"not taken as observed (first: {utc_text(first)})"
         )
     recorded = recorded[inside]
     if marks is not None and marks.size:  # the windows only markers hold: without a message

@@ -35,8 +35,8 @@ from aion_cli import note_words as words
 from aion_cli.engine.temporal.calendar import DAY_NS
 
 if TYPE_CHECKING:
+    from aion_cli.engine.time_text import Zone
     from aion_cli.manifest import Manifest
-    from aion_cli.timeparse import Zone
 
 STATIC_THERE = (
     "every entry at its static rate, its mean per window over all the hours observed "
@@ -357,10 +357,9 @@ def _first_unseen_day(
 
 def _weekday_in(t_ns: int, shown: Zone | None) -> int:
     """The day of the week (Monday 0) of ``t_ns`` in the zone ``shown`` (None: UTC)."""
-    from datetime import UTC, datetime
+    from aion_cli.engine.time_text import utc_of
 
-    tz = UTC if shown is None else shown.tz
-    return datetime.fromtimestamp(t_ns // 1_000_000_000, tz).weekday()
+    return (utc_of(t_ns) if shown is None else utc_of(t_ns).astimezone(shown.tz)).weekday()
 
 
 def _hours(manifest: Manifest, per_day: int) -> list[int]:

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
+from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import I64
-from aion_cli.engine.windows import iso
 
 
 @dataclass(frozen=True)
@@ -43,11 +43,11 @@ class SpanCheck:
     def warnings(self) -> list[str]:
         """One line naming every stray (topic, count, first time) and the span shown, and one
         naming every log time outside the range a build takes."""
-        shown = f"({iso(self.start_ns)} .. {iso(self.end_ns)})"
+        shown = f"({utc_text(self.start_ns)} .. {utc_text(self.end_ns)})"
         out = []
         if self.out_of_range:
             named = "; ".join(
-                f"{n:,} on {topic} (first: {iso(first)})"
+                f"{n:,} on {topic} (first: {utc_text(first)})"
                 for topic, (n, first) in sorted(self.out_of_range.items())
             )
             if self.nothing_kept:
@@ -62,7 +62,7 @@ class SpanCheck:
             )
         if self.strays:
             named = "; ".join(
-                f"{t.size:,} on {topic} (first: {iso(int(t[0]))})"
+                f"{t.size:,} on {topic} (first: {utc_text(int(t[0]))})"
                 for topic, t in sorted(self.strays.items())
             )
             out.append(

@@ -38,8 +38,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.mapper import MAX_TIME_NS, MIN_TIME_NS, TIME_RANGE_TEXT
+from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import I64, BoolA
-from aion_cli.engine.windows import iso
 from aion_cli.errors import InputError, path_word
 
 if TYPE_CHECKING:
@@ -355,13 +355,13 @@ class TimeCheck:
             if n:
                 out.append(
                     f"{n:,} message(s) on {topic} dropped: log time outside {TIME_RANGE_TEXT} "
-                    f"(first: {iso(self.first_out_of_range[topic])})"
+                    f"(first: {utc_text(self.first_out_of_range[topic])})"
                 )
         for topic, times in sorted(self.strays.items()):
             what = "ignored for the time span" if topic in decoded else "dropped"
             out.append(
                 f"{times.size:,} message(s) on {topic} {what}: log time more than a day away "
-                f"from the topic's other messages (first: {iso(int(times[0]))}; "
+                f"from the topic's other messages (first: {utc_text(int(times[0]))}; "
                 "docs/ROBUSTNESS.md, time sanity)"
             )
         return out
@@ -380,12 +380,12 @@ def other_clock_error(
 
     if log_start_ns is None or not log_start_ns < SIM_TIME_BEFORE_NS <= open_start:
         return None
-    stamped = "" if stamped_ns is None else f" (theirs are stamped from {iso(stamped_ns)})"
+    stamped = "" if stamped_ns is None else f" (theirs are stamped from {utc_text(stamped_ns)})"
     return InputError(
-        f"the log times of {names} start at {iso(log_start_ns)}: their clock is not wall "
+        f"the log times of {names} start at {utc_text(log_start_ns)}: their clock is not wall "
         "time but, it seems, a simulation's clock from 0 (use_sim_time), while the map's "
         "windows come from the messages' header stamps, on the wall clock; it has closed "
-        f"every window before {iso(open_start)}{stamped}, and such log times cannot tell "
+        f"every window before {utc_text(open_start)}{stamped}, and such log times cannot tell "
         "the order of the logs' stamps; nothing was added",
         hint="add the logs one at a time in the order of their stamps (aion build FIRST.mcap "
         "-o MAP.aion, then aion build NEXT.mcap --map MAP.aion), or record them with the "
@@ -420,8 +420,8 @@ def check_after_open(
     listed = " ".join([*words, *map(path_word, logs[:3])])
     raise InputError(
         f"the {what}s of {', '.join(p.name for p in logs)} start at "
-        f"{iso(int(t_ns.min()))}, but {map_name} has already closed every "
-        f"window before {iso(open_start)}: logs must be added to a map in time order; "
+        f"{utc_text(int(t_ns.min()))}, but {map_name} has already closed every "
+        f"window before {utc_text(open_start)}: logs must be added to a map in time order; "
         "nothing was added",
         hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
     )
@@ -436,8 +436,8 @@ def overlap_note(first: int, end_ns: int, logs: Sequence[Path], map_name: str) -
     if first >= end_ns:
         return None
     return (
-        f"the detections of {', '.join(p.name for p in logs)} start at {iso(first)}, before "
-        f"{map_name}'s data ends ({iso(end_ns)}): they are learnt after the map's, not "
+        f"the detections of {', '.join(p.name for p in logs)} start at {utc_text(first)}, before "
+        f"{map_name}'s data ends ({utc_text(end_ns)}): they are learnt after the map's, not "
         "interleaved with them, so the map differs from one build of all the logs (tracks "
         "are linked apart); build all the logs at once for that map"
     )
@@ -469,7 +469,7 @@ def overlap_warnings(
         shared = span_text((o.end_ns - o.start_ns) / 1e9)  # as info gives spans: "0.3 s"
         out.append(
             f"{o.first.path.name} and {o.second.path.name} both hold {', '.join(o.topics)} "
-            f"from {iso(o.start_ns)} to {iso(o.end_ns)} ({shared}), with the same people "
+            f"from {utc_text(o.start_ns)} to {utc_text(o.end_ns)} ({shared}), with the same people "
             "at the same times and places: the people both logs saw count twice; if one "
             "repeats the other (a copy, an excerpt, a merged file), build from one of them"
         )

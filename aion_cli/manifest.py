@@ -83,7 +83,8 @@ class Manifest:
 
         span = "no time span"
         if self.start_ns is not None and self.end_ns is not None:
-            from aion_cli.timeparse import format_ns, resolve_zone
+            from aion_cli.engine.time_text import format_ns
+            from aion_cli.timeparse import resolve_zone
 
             zone = resolve_zone(self.timezone or "UTC")
             span = f"{format_ns(self.start_ns, zone)} .. {format_ns(self.end_ns, zone)}"

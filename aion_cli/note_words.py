@@ -58,8 +58,9 @@ def duration(ns: int) -> str:
 
 def day(t_ns: int, zone: str | None = None) -> str:
     """The date of ``t_ns`` in ``zone`` (UTC when None), ``YYYY-MM-DD``."""
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.errors import AionError
-    from aion_cli.timeparse import format_ns, resolve_zone
+    from aion_cli.timeparse import resolve_zone
 
     try:
         resolved = resolve_zone(zone or "UTC")

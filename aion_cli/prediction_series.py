@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.time_text import Zone
 from aion_cli.time_steps import Step
-from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
     from aion_cli.entry_columns import EntryColumns
@@ -183,9 +183,10 @@ def series_times(
     are (``departures`` of a plan, ``frames`` of an export); ``typed``: the start as the user
     gave it, whose wall-clock time a step in days keeps on the other days where a clock
     change skipped it (:func:`aion_cli.wall_clock.skipped_wall`: 02:30 again, not 03:30)."""
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.errors import InputError
     from aion_cli.time_steps import step_time
-    from aion_cli.timeparse import format_ns, offset_changes_near
+    from aion_cli.timeparse import offset_changes_near
     from aion_cli.wall_clock import skipped_wall
 
     wall = skipped_wall(typed, zone, start_ns) if step.days else None

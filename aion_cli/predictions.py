@@ -26,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Literal
 
-from aion_cli.timeparse import Zone
+from aion_cli.engine.time_text import Zone
 
 if TYPE_CHECKING:
     from aion_cli.entry_columns import EntryColumns
@@ -146,8 +146,8 @@ def document(
     """The JSON document of ``predict`` and of ``export``'s entries.json: metadata and rows.
     ``t_ns`` None means historical (what was observed); ``hour_observed`` (when known:
     :func:`hour_flags`) whether any day observed the time's hour of the day."""
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.formats.outputs import safe_text
-    from aion_cli.timeparse import format_ns
 
     when = None if t_ns is None or zone is None else (format_ns(t_ns, zone), zone.name)
     doc: dict[str, Any] = {
@@ -188,7 +188,8 @@ def scene_about(loaded: LoadedMap, t_ns: int | None, zone: Zone | None) -> list[
     ``aion hour_observed`` as :func:`document` gives them (the time in ``zone``, UTC without
     one; the flag ``true`` / ``false``, left out where not known), ``aion mode historical``
     alone as observed."""
-    from aion_cli.timeparse import format_ns, resolve_zone
+    from aion_cli.engine.time_text import format_ns
+    from aion_cli.timeparse import resolve_zone
 
     if t_ns is None:
         return ["aion mode historical"]

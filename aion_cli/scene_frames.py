@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.timeparse import Zone
+from aion_cli.engine.time_text import Zone
 
 if TYPE_CHECKING:
     from aion_cli.formats.scene_style import SceneStyle
@@ -40,6 +40,7 @@ def export_mcap(
     time logged at that time (a historical step at the end of the map's data), with the path
     between ``ends`` (``exports.path_ends``) planned at each step; ``on_frame`` after each
     step. ``out`` is checked before anything is computed and appears complete or not at all."""
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.formats.outputs import safe_text
     from aion_cli.formats.scene_markers import FRAME
     from aion_cli.formats.scene_mcap import (
@@ -49,7 +50,6 @@ def export_mcap(
     )
     from aion_cli.manifest import Manifest
     from aion_cli.predictions import hour_flags, observed_text
-    from aion_cli.timeparse import format_ns
 
     check_scene_target(out)
     check_step_times([_log_time(loaded, t) for t in times])  # before any scene is computed

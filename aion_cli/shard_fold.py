@@ -253,7 +253,7 @@ def learn_rest(
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
     """A continued map has closed every window before its open one: logs with data there
     must come in time order (as a sequential build's ``_check_after_map`` says)."""
-    from aion_cli.log_times import iso
+    from aion_cli.engine.time_text import utc_text
 
     start = result.report.start_ns
     if acc.open_window is None or start is None:
@@ -267,8 +267,8 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         if clocks is not None:  # the logs' clock from 0, the map's windows from stamps
             raise clocks
         raise InputError(
-            f"the messages of {_names(task.logs)} start at {iso(start)}, but the map has "
-            f"already closed every window before {iso(open_start)}: logs must be added to a "
+            f"the messages of {_names(task.logs)} start at {utc_text(start)}, but the map has "
+            f"already closed every window before {utc_text(open_start)}: logs must be added to a "
             "map in time order; nothing was added",
             hint="rebuild the map from all logs at once",
         )

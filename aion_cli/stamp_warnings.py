@@ -16,13 +16,13 @@ FAR_STAMPS = "stamped more than a day away from their messages' log times"
 def far_stamps_warning(topic: str, n: int, example: tuple[int, int]) -> str:
     """The warning for ``n`` detections of ``topic`` whose header stamps lie more than a day
     from their log times (``example``: the first one's stamp and log time)."""
-    from aion_cli.engine.windows import iso
+    from aion_cli.engine.time_text import utc_text
 
     return (
         f"{n:,} detection(s) on {topic} are {FAR_STAMPS} (the first stamped "
-        f"{iso(example[0])}, logged {iso(example[1])}): stamps and log times follow different "
-        "clocks (simulated time; a log recorded again later), and a detection's time is its "
-        f"stamp but what was observed comes from the log times; {_log_times_hint(topic)}"
+        f"{utc_text(example[0])}, logged {utc_text(example[1])}): stamps and log times follow "
+        "different clocks (simulated time; a log recorded again later), and a detection's time is "
+        f"its stamp but what was observed comes from the log times; {_log_times_hint(topic)}"
     )
 
 
@@ -48,14 +48,14 @@ def off_stamps_warning(topic: str, n: int, stamped: int, example: tuple[int, int
     :data:`OFF_STAMPS_SHARE` of them) whose header stamps lie a minute to a day from their log
     times (``example``: the first one's stamp and log time): the stamps' clock is off, and the
     detections land in other windows than the ones the log times say were observed."""
-    from aion_cli.engine.windows import iso
+    from aion_cli.engine.time_text import utc_text
     from aion_cli.number_text import span_text
 
     stamp, logged = example
     offset = ("+" if stamp >= logged else "-") + span_text(abs(stamp - logged) / 1e9)
     return (
         f"{n:,} of the {stamped:,} detection(s) on {topic} are {OFF_STAMPS} (the first "
-        f"stamped {iso(stamp)}, logged {iso(logged)}: {offset}):"
+        f"stamped {utc_text(stamp)}, logged {utc_text(logged)}: {offset}):"
         " a detection's time is its stamp but what was observed comes from the log times, so"
         " the detections fall into other windows than the log recorded (those before its"
         " windows are dropped, those after them make windows of their own and leave the"
@@ -95,11 +95,11 @@ def sim_time_warning(start_ns: int | None, what: str = "the map's data") -> str 
         return None
     from datetime import UTC, datetime, timedelta
 
-    from aion_cli.engine.windows import iso
+    from aion_cli.engine.time_text import utc_text
 
     when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=start_ns // 1000)
     return (
-        f"{what} starts at {iso(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
+        f"{what} starts at {utc_text(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
         "the day and weekdays are that clock's, not the world's, and a forecast for now lies "
         f"decades after its data: query it at times of its own (aion predict MAP --time "
         f'"{when:%Y-%m-%d} 08:00"), or record the logs with the wall clock'

@@ -10,9 +10,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import Trajectory
 from aion_cli.errors import TransformError
-from aion_cli.log_times import iso, stray_mask
+from aion_cli.log_times import stray_mask
 
 if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
@@ -40,7 +41,7 @@ def robot_trajectory(
     if stray.any():
         warnings.append(
             f"{int(stray.sum()):,} robot pose(s) ignored: stamped more than a day away from "
-            f"the rest of the trajectory (first: {iso(int(t[stray].min()))})"
+            f"the rest of the trajectory (first: {utc_text(int(t[stray].min()))})"
         )
         keep = ~stray
         traj = Trajectory(t[keep], np.asarray(traj.xyz)[keep])

@@ -243,9 +243,9 @@ def part_fields(part: tuple[int, int] | None) -> dict[str, str]:
 
 
 def _iso(t_ns: int) -> str:
-    from aion_cli.log_times import iso
+    from aion_cli.engine.time_text import utc_text
 
-    return iso(t_ns)
+    return utc_text(t_ns)
 
 
 def parts_of(cuts: list[int]) -> list[tuple[int, int]]:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from decimal import Decimal
 
+from aion_cli.engine.time_text import Zone, from_ns
 from aion_cli.timeparse import (
     MAX_TIME_NS,
     MIN_TIME_NS,
@@ -17,8 +18,6 @@ from aion_cli.timeparse import (
     RE_REL_PART,
     UNITS_S,
     TimeFormatError,
-    Zone,
-    from_ns,
     to_ns,
 )
 

@@ -23,18 +23,16 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Sequence
-from dataclasses import dataclass
-from datetime import UTC, date, datetime, time, timedelta, tzinfo
+from datetime import UTC, date, datetime, time, timedelta
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from aion_cli.engine.temporal.zones import suggest_zone, zone_key, zone_of
+from aion_cli.engine.time_text import EPOCH, Zone, format_ns, from_ns, offset_text
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.time_numbers import refuse_misread_number
 
-EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
 NS_PER_S = 1_000_000_000
 MIN_TIME_NS = -2_208_988_800 * NS_PER_S
 """Earliest time accepted, 1900-01-01T00:00Z."""
@@ -84,14 +82,6 @@ _RE_OWN_OFFSET = re.compile(r"\d:\d{2}(?::\d{2}(?:\.\d+)?)?\s*(z|[+-]\d{2}(?::?\
 
 class TimeFormatError(InputError):
     """A time or time-zone string the user typed cannot be understood."""
-
-
-@dataclass(frozen=True)
-class Zone:
-    """A time zone and the name shown to the user."""
-
-    tz: tzinfo
-    name: str
 
 
 # -- zones -------------------------------------------------------------------------------------
@@ -151,52 +141,6 @@ def to_ns(moment: datetime) -> int:
     """An aware datetime -> exact int nanoseconds since the UNIX epoch."""
     delta = moment - EPOCH
     return (delta.days * 86400 + delta.seconds) * NS_PER_S + delta.microseconds * 1000
-
-
-def offset_text(moment: datetime) -> str:
-    """The UTC offset of an aware ``moment`` as ISO writes it: ``+02:00`` (``-00:44:30`` for
-    an offset of seconds, Monrovia's until 1972)."""
-    seconds = round((moment.utcoffset() or timedelta(0)).total_seconds())
-    hours, rest = divmod(abs(seconds), 3600)
-    text = f"{'-' if seconds < 0 else '+'}{hours:02d}:{rest // 60:02d}"
-    return text + (f":{rest % 60:02d}" if rest % 60 else "")
-
-
-def repeated_wall_clock(moment: datetime) -> bool:
-    """Whether the wall-clock time of an aware ``moment`` happens twice (the hour a clock
-    change repeats): its other fold has another offset."""
-    return moment.replace(fold=1 - moment.fold).utcoffset() != moment.utcoffset()
-
-
-def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
-    """``strftime(form)`` of each time in ``zone``; where two different times read the same
-    (the hour a clock change repeats: 01:30 twice), their UTC offsets are added
-    (``01:30 +02:00``, ``01:30 +01:00``), so no two rows or panels look alike."""
-    stamps = [from_ns(int(t), zone) for t in times_ns]
-    labels = [s.strftime(form) for s in stamps]
-    instants: dict[str, set[int]] = {}
-    for label, t in zip(labels, times_ns, strict=True):
-        instants.setdefault(label, set()).add(int(t))
-    return [
-        f"{label} {offset_text(s)}" if len(instants[label]) > 1 else label
-        for label, s in zip(labels, stamps, strict=True)
-    ]
-
-
-def from_ns(t_ns: int, zone: Zone) -> datetime:
-    """int nanoseconds -> aware datetime in ``zone`` (microsecond precision)."""
-    return (EPOCH + timedelta(microseconds=int(t_ns) // 1000)).astimezone(zone.tz)
-
-
-def format_ns(t_ns: int, zone: Zone, *, millis: bool = False) -> str:
-    """Readable ISO form with offset, e.g. ``2026-11-23 08:30:00+01:00``; with ``millis``,
-    rounded to the nearest millisecond (``2026-11-23 08:30:02.667+01:00``), else cut to the
-    second."""
-    if not millis:
-        return from_ns(t_ns, zone).isoformat(sep=" ", timespec="seconds")
-    ns_per_ms = 1_000_000
-    nearest = (int(t_ns) + ns_per_ms // 2) // ns_per_ms * ns_per_ms
-    return from_ns(nearest, zone).isoformat(sep=" ", timespec="milliseconds")
 
 
 def zone_named_in(text: str, zone: Zone) -> Zone:
@@ -301,7 +245,7 @@ def _check_own_offset(text: str, zone: Zone, t_ns: int, raw: str) -> None:
         return
     mark = own.group(1)
     stated = datetime.fromisoformat("2000-01-01T00:00" + ("+00:00" if mark == "z" else mark))
-    moment = datetime.fromtimestamp(t_ns // NS_PER_S, UTC).astimezone(zone.tz)
+    moment = from_ns(t_ns, zone)
     if stated.utcoffset() != moment.utcoffset():
         raise TimeFormatError(
             f"the time {raw!r} names two zones that disagree: its offset {mark.upper()} and "

@@ -27,8 +27,8 @@ import numpy as np
 
 if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
+    from aion_cli.engine.time_text import Zone
     from aion_cli.engine.types import Trajectory
-    from aion_cli.timeparse import Zone
 
 Span = tuple[int, int]
 
@@ -70,7 +70,8 @@ def observed_apart_warnings(
     rest."""
     if first is None or last is None:
         return []
-    from aion_cli.timeparse import Zone, format_ns, resolve_zone
+    from aion_cli.engine.time_text import Zone, format_ns
+    from aion_cli.timeparse import resolve_zone
 
     zone = zone_name if isinstance(zone_name, Zone) else resolve_zone(zone_name or "UTC")
     out: list[str] = []
@@ -110,7 +111,8 @@ def agents_apart_warning(
     lo, hi = agents
     if hi >= first and lo <= last:
         return None
-    from aion_cli.timeparse import format_ns, resolve_zone
+    from aion_cli.engine.time_text import format_ns
+    from aion_cli.timeparse import resolve_zone
 
     zone = resolve_zone(zone_name or "UTC")
     return (

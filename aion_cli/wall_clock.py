@@ -14,14 +14,11 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Any, cast
 
+from aion_cli.engine.time_text import Zone, format_ns, from_ns, repeated_wall_clock
 from aion_cli.timeparse import (
     TimeFormatError,
-    Zone,
-    format_ns,
-    from_ns,
     offset_changes_near,
     parse_time,
-    repeated_wall_clock,
     resolve_zone,
     to_ns,
     zone_named_in,

@@ -170,7 +170,7 @@ class BagReader(Reader):
         in the chunk keeps its own time, which is used instead, with a warning; rosbags
         stops the read at such an entry. A chunk whose entries mostly lie outside its info
         keeps them (the info is the damaged one) and so does a chunk that cannot be read."""
-        from aion_cli.formats.mcap_records import iso
+        from aion_cli.engine.time_text import iso_utc
 
         infos = {info.pos: info for info in self.chunk_infos}
         outside: dict[int, list[tuple[int, int]]] = {}  # chunk -> (connection, entry index)
@@ -199,8 +199,8 @@ class BagReader(Reader):
             self._gaps.append(
                 f"{self._file.name}: its index gives {len(bad):,} message"
                 f"{'' if len(bad) == 1 else 's'} of the chunk at byte {pos} a time outside the "
-                f"chunk's (first: {iso(self.indexes[cid][k].time)}; a damaged index entry): "
-                f"the message's own time is used ({iso(times[0])})"
+                f"chunk's (first: {iso_utc(self.indexes[cid][k].time)}; a damaged index entry): "
+                f"the message's own time is used ({iso_utc(times[0])})"
             )
             for (cid, k), t in zip(bad, times, strict=True):
                 self.indexes[cid][k] = self.indexes[cid][k]._replace(time=t)

@@ -284,12 +284,13 @@ def storage_step_warnings(storages: Iterable[Any], names: Iterable[str] | None =
 
 
 def _warning(name: str, step: Step) -> str:
-    from aion_cli.formats.mcap_records import iso
+    from aion_cli.engine.time_text import iso_utc
 
     where = (
-        f"a message logged {iso(step.after_ns)} follows one logged {iso(step.before_ns)}"
+        f"a message logged {iso_utc(step.after_ns)} follows one logged {iso_utc(step.before_ns)}"
         if step.inside
-        else f"a chunk starting {iso(step.after_ns)} follows one ending {iso(step.before_ns)}"
+        else f"a chunk starting {iso_utc(step.after_ns)} follows one ending "
+        f"{iso_utc(step.before_ns)}"
     )
     return (
         f"{name}: its log times go back at least {step.back_ns / 6e10:.1f} min ({where}): the "

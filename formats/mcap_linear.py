@@ -382,8 +382,8 @@ class _McapLinearRead(_Source):
 
     def _oversized(self, big: list[tuple[int, int, int]]) -> None:
         """Warn about messages left out for their size."""
+        from aion_cli.engine.time_text import iso_utc
         from aion_cli.formats import limits as caps
-        from aion_cli.formats.mcap_records import iso
 
         if self._pending_big is not None:
             self._pending_big.extend(big)
@@ -391,7 +391,7 @@ class _McapLinearRead(_Source):
         for cid, log_time, size in big:
             topic = self.channel_topics.get(cid, f"channel {cid}")
             self._warn(
-                f"{self.path.name}: a message on {topic} at {iso(log_time)} skipped: "
+                f"{self.path.name}: a message on {topic} at {iso_utc(log_time)} skipped: "
                 + str(caps.message_over_limit(size, self._limits.max_message_bytes))
             )
 

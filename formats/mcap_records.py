@@ -21,7 +21,6 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
 from operator import itemgetter
 from typing import IO
 
@@ -294,25 +293,3 @@ def read_index_heads(f: IO[bytes], start: int, stop: int) -> Iterator[tuple[int,
             return
         yield pos, channel_id, entries // _INDEX_ENTRY
         pos += RECORD_HEAD.size + length
-
-
-_UNIX_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
-
-
-def utc_of(t_ns: int) -> datetime:
-    """A UNIX-ns log time as an aware UTC datetime, cut to the microsecond in integer
-    arithmetic (floor division, so a time before 1970 is cut towards the earlier microsecond
-    too). Not through float seconds: near 2023 a float second has steps of about 0.24 µs and
-    ``fromtimestamp`` rounds, so ``...59.999999999`` became the next second, minute or day.
-    :class:`OverflowError` outside datetime's years 1..9999."""
-    return _UNIX_EPOCH + timedelta(microseconds=int(t_ns) // 1000)
-
-
-def iso(t_ns: int) -> str:
-    """A log time as UTC ISO 8601 with microseconds, cut (never rounded up) as
-    :func:`utc_of` cuts it: ``2023-11-14T22:13:20.123456Z`` (``aion info``'s ``start`` and
-    ``end``, and messages); the raw value (``... ns``) when out of range."""
-    try:
-        return utc_of(t_ns).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
-    except OverflowError:
-        return f"{t_ns} ns"

@@ -308,8 +308,8 @@ class _McapSource(_McapIndexed):
     def _unzstd_messages(self, wanted: set[int]) -> Iterator[RawMessage]:
         """Messages whose payloads are zstd-compressed, decompressed one by one within the
         message cap (one over it is skipped with a warning)."""
+        from aion_cli.engine.time_text import iso_utc
         from aion_cli.formats.limits import OverLimitError
-        from aion_cli.formats.mcap_records import iso
 
         cap = self._limits.max_message_bytes
         for log_time, channel_id, data in self._records(wanted):
@@ -318,7 +318,7 @@ class _McapSource(_McapIndexed):
                 try:
                     data = _unzstd(data, cap)
                 except OverLimitError as exc:
-                    self._warn(f"{self.path.name}: a message on {topic} at {iso(log_time)} "
+                    self._warn(f"{self.path.name}: a message on {topic} at {iso_utc(log_time)} "
                                f"skipped: {exc}")
                     continue
             yield RawMessage(topic, msgtype, log_time, data, encoding)

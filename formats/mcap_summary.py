@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import IO, Any
 
+from aion_cli.engine.time_text import iso_utc
 from aion_cli.formats.mcap_records import (
     CORRUPT,
     MESSAGE_HEAD,
@@ -23,7 +24,6 @@ from aion_cli.formats.mcap_records import (
     RECORD_HEAD,
     ChunkHead,
     RecordError,
-    iso,
     read_chunk_head,
     read_index_heads,
     walk,
@@ -259,11 +259,11 @@ def _compare_statistics(
         first, last = (min(starts), max(ends)) if starts else (0, 0)
         if statistics.message_start_time not in (first, *([0] if zero_chunk else [])):
             problems.append(
-                f"its statistics say the messages start at {iso(statistics.message_start_time)},"
-                f" its chunks at {iso(first)}"
+                "its statistics say the messages start at "
+                f"{iso_utc(statistics.message_start_time)}, its chunks at {iso_utc(first)}"
             )
         if statistics.message_end_time != last:
             problems.append(
-                f"its statistics say the messages end at {iso(statistics.message_end_time)}, "
-                f"its chunks at {iso(last)}"
+                f"its statistics say the messages end at {iso_utc(statistics.message_end_time)}, "
+                f"its chunks at {iso_utc(last)}"
             )

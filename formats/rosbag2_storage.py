@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from aion_cli.engine.time_text import iso_utc
 from aion_cli.errors import LogFormatError
-from aion_cli.formats.mcap_records import iso
 from aion_cli.listing import first_few
 
 ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
@@ -353,8 +353,8 @@ def metadata_disagreements(
     out = []
     start, duration, count = figures.start_ns, figures.duration_ns, figures.message_count
     if start is not None and total and start != start_ns:
-        what = "impossible: before 1970" if start < 0 else iso(start)
-        out.append(f"starting_time {start} ns ({what}; the files start at {iso(start_ns)})")
+        what = "impossible: before 1970" if start < 0 else iso_utc(start)
+        out.append(f"starting_time {start} ns ({what}; the files start at {iso_utc(start_ns)})")
     if duration is not None and total and duration != last_ns - start_ns:
         what = "impossible, " if duration < 0 else ""
         out.append(f"duration {duration} ns ({what}the files: {last_ns - start_ns} ns)")

@@ -236,11 +236,11 @@ class _RosbagsSource(_Source):
                 )
 
         def oversized(conn: Any, t_ns: int, size: int) -> None:
+            from aion_cli.engine.time_text import iso_utc
             from aion_cli.formats import limits as caps
-            from aion_cli.formats.mcap_records import iso
 
             warning = (
-                f"{self.path.name}: a message on {conn.topic} at {iso(t_ns)} skipped: "
+                f"{self.path.name}: a message on {conn.topic} at {iso_utc(t_ns)} skipped: "
                 + str(caps.message_over_limit(size, self._limits.max_message_bytes))
             )
             if warning not in self.warnings:
@@ -424,8 +424,8 @@ def _one_storage(
     unzstd: bool | None,
     between: tuple[int, int] | None = None,
 ) -> Iterator[RawMessage]:
+    from aion_cli.engine.time_text import iso_utc
     from aion_cli.formats.limits import OverLimitError
-    from aion_cli.formats.mcap_records import iso
 
     meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
     cap = source._limits.max_message_bytes
@@ -436,7 +436,9 @@ def _one_storage(
             try:
                 data = _unzstd(data, cap)
             except OverLimitError as exc:
-                warning = f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: {exc}"
+                warning = (
+                    f"{source.path.name}: a message on {topic} at {iso_utc(t_ns)} skipped: {exc}"
+                )
                 if warning not in source.warnings:
                     source.warnings.append(warning)
                 continue
@@ -446,7 +448,7 @@ def _one_storage(
             from aion_cli.formats.limits import message_over_limit
 
             warning = (
-                f"{source.path.name}: a message on {topic} at {iso(t_ns)} skipped: "
+                f"{source.path.name}: a message on {topic} at {iso_utc(t_ns)} skipped: "
                 f"{message_over_limit(len(data), cap)}"
             )
             if warning not in source.warnings:

@@ -85,14 +85,13 @@ class SceneTimeError(InputError):
 def check_step_times(times_ns: Sequence[int]) -> None:
     """:class:`SceneTimeError` naming the first of ``times_ns`` (ns since 1970) a step cannot
     be logged at; checked for a whole series before any scene is computed."""
-    from datetime import UTC, datetime
+    from aion_cli.engine.time_text import utc_text
 
     for t_ns in times_ns:
         if 0 <= t_ns <= LAST_STEP_NS:
             continue
-        moment = datetime.fromtimestamp(t_ns // 1_000_000_000, UTC).strftime("%Y-%m-%d %H:%M:%S")
         raise SceneTimeError(
-            f"cannot log a scene at {moment} UTC: an MCAP scene's steps lie in 1970-01-01 .. "
+            f"cannot log a scene at {utc_text(t_ns)}: an MCAP scene's steps lie in 1970-01-01 .. "
             "2038-01-19 03:14:07 UTC (MCAP log times start in 1970, and its ROS 2 messages "
             "hold their time in 32-bit seconds)",
             hint="choose times in that span; png, ply, pcd and dsg exports take any time",

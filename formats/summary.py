@@ -13,7 +13,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
-from aion_cli.formats.mcap_records import iso
+from aion_cli.engine.time_text import iso_utc
 from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
@@ -186,8 +186,8 @@ class LogSummary:
             "compression": self.compression,
             "start_ns": self.start_ns if held else None,
             "end_ns": self.end_ns if held else None,
-            "start": iso(self.start_ns) if held else None,
-            "end": iso(self.end_ns) if held else None,
+            "start": iso_utc(self.start_ns) if held else None,
+            "end": iso_utc(self.end_ns) if held else None,
             "duration_s": round(self.duration_s, 6),
             "span_s": round(self.span_s, 6),
             "recorded_s": round(self.recorded_s, 6),

@@ -23,9 +23,9 @@ import numpy.typing as npt
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.spatial_hash import BIAS
+from aion_cli.engine.time_text import utc_of
 from aion_cli.engine.types import F64, DetectionBatch
 from aion_cli.errors import InputError
-from aion_cli.formats.mcap_records import utc_of
 
 Layout = Literal[
     "canonical", "atc", "thor", "eth", "ucy", "lincoln", "edinburgh", "thor-magni"
@@ -119,7 +119,7 @@ def sessions(t_ns: npt.ArrayLike, gap_ns: int) -> list[tuple[int, int]]:
 
 def _utc(t_ns: int) -> str:
     """``2026-01-05 08:00:00``: a UNIX-ns time cut to the second (not rounded up to the next
-    through float seconds: :func:`formats.mcap_records.utc_of`)."""
+    through float seconds: :func:`aion_cli.engine.time_text.utc_of`)."""
     return utc_of(t_ns).strftime("%Y-%m-%d %H:%M:%S")
 
 

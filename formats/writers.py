@@ -75,12 +75,12 @@ def check_stamps(last_ns: int, container: str, what: str) -> None:
     with, lies beyond what ``container``'s messages hold (:func:`max_stamp_ns`)."""
     limit = max_stamp_ns(container)
     if int(last_ns) > limit:
-        from datetime import UTC, datetime
+        from aion_cli.engine.time_text import utc_text
 
-        day = datetime.fromtimestamp(limit // 1_000_000_000, UTC).strftime("%Y-%m-%d %H:%M:%S")
+        day = utc_text(limit)
         ros = "ROS 1" if container in _ROS1_CONTAINERS else "ROS 2"
         raise LogTimeError(
-            f"{what} reach beyond {day} UTC, the latest header stamp a {ros} message holds "
+            f"{what} reach beyond {day}, the latest header stamp a {ros} message holds "
             f"(container {container})",
             hint="shift the times earlier (--start)"
             if ros == "ROS 1"

@@ -9,8 +9,9 @@ from typing import Any, TypeVar
 
 import click
 
+from aion_cli.engine.time_text import Zone, format_ns
 from aion_cli.time_steps import parse_step
-from aion_cli.timeparse import Zone, format_ns, parse_time, resolve_zone
+from aion_cli.timeparse import parse_time, resolve_zone
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -152,7 +153,7 @@ def resolve_time(
 def _reference(start_ns: int | None, zone: Zone) -> Any:
     """The moment an end's clock-only, day-word or relative form counts from: its span's
     start (None: now); ``now`` itself is the current time still (``parse_time``)."""
-    from aion_cli.timeparse import from_ns
+    from aion_cli.engine.time_text import from_ns
 
     return None if start_ns is None else from_ns(start_ns, zone)
 
@@ -253,12 +254,8 @@ def parse_span(text: str, zone: Zone, option: str, instant: bool = False) -> tup
     except TimeFormatError as exc:
         raise InputError(f"{option} {text!r}: {exc.message}", hint=exc.hint) from exc
     if end <= start:
-        from aion_cli.timeparse import (
-            format_ns,
-            offset_changes_near,
-            one_wall_clock,
-            zone_named_in,
-        )
+        from aion_cli.engine.time_text import format_ns
+        from aion_cli.timeparse import offset_changes_near, one_wall_clock, zone_named_in
 
         read = f" (read as {format_ns(start, zone)} .. {format_ns(end, zone)}"
         # two wall-clock times of one zone, one instant, where that zone changes its clock

@@ -276,7 +276,7 @@ def command(
     if cut is not None:
         warn(cut)
     if layout == "edinburgh":
-        from aion_cli.timeparse import format_ns
+        from aion_cli.engine.time_text import format_ns
 
         note(
             f"edinburgh: frame 0 taken as {format_ns(start_ns, zone)}, frames at "
@@ -442,7 +442,8 @@ def _warn_time_unit(name: str, first_ns: int, last_ns: int | None) -> None:
     microseconds, not nanoseconds: every detection then lies in 1970 (1351038020 "ns" is
     1970-01-01 00:00:01; as seconds, ATC's 2012-10-24 00:20:20 UTC)."""
     from aion_cli.cli.console import warn
-    from aion_cli.timeparse import format_ns, resolve_zone
+    from aion_cli.engine.time_text import format_ns
+    from aion_cli.timeparse import resolve_zone
 
     last = first_ns if last_ns is None else last_ns
     for unit, scale, factor in _OTHER_UNITS:
@@ -461,8 +462,8 @@ def _warn_stray_times(name: str, times: Any, zone: Any) -> None:
     (:func:`aion_cli.log_times.stray_mask`, the rule by which ``aion build`` drops them): a
     damaged time (an ATC row's ``1351`` cut from ``1351038020``) made the log span decades."""
     from aion_cli.cli.console import warn
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.log_times import stray_mask
-    from aion_cli.timeparse import format_ns
 
     stray = stray_mask(times)
     if stray.any():

@@ -28,7 +28,7 @@ def describe(
     read (damaged, CRC failures) are warnings with the messages lost, as a build's are, and
     ``verified.messages_read`` counts the messages read."""
     from aion_cli.build_report import NoProgress
-    from aion_cli.engine.windows import iso
+    from aion_cli.engine.time_text import utc_text
     from aion_cli.formats.log_zone import declared_zones
     from aion_cli.formats.logs import open_logs
     from aion_cli.formats.summary import summarize
@@ -56,7 +56,7 @@ def describe(
             if first.passed:
                 summary.warnings.append(
                     f"{topic}: described by the first scene graph aion build uses, logged "
-                    f"{iso(first.t_ns or 0)}; {first.passed:,} graph message(s) before it "
+                    f"{utc_text(first.t_ns or 0)}; {first.passed:,} graph message(s) before it "
                     "left out (stray log time, damaged or partial update)"
                 )
         report = summary.to_dict()
@@ -164,11 +164,14 @@ def _recorded_spans(logs: Any) -> dict[str, list[dict[str, Any]]]:
     """Per log (its path), the observed spans it records (``aion convert --observed``,
     :func:`formats.log_zone.declared_spans`), which ``aion build`` takes without
     ``--observed``: start and end in ns and as UTC times."""
-    from aion_cli.engine.windows import iso
+    from aion_cli.engine.time_text import utc_text
     from aion_cli.formats.log_zone import declared_spans
 
     return {
-        path: [{"start_ns": a, "end_ns": b, "start": iso(a), "end": iso(b)} for a, b in spans]
+        path: [
+            {"start_ns": a, "end_ns": b, "start": utc_text(a), "end": utc_text(b)}
+            for a, b in spans
+        ]
         for path, spans in declared_spans(list(logs)).items()
     }
 

@@ -106,8 +106,9 @@ def span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) ->
     """``120h00m00s: Mon 2026-01-05 00:00 to Sat 2026-01-10 00:00 UTC``: the span's ends in
     the map's zone with their weekdays (which kinds of day the map can know); the length
     alone for a zone this machine does not know or a map without data."""
+    from aion_cli.engine.time_text import from_ns
     from aion_cli.errors import AionError
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.timeparse import resolve_zone
 
     if not isinstance(start, int) or not isinstance(end, int):
         return length
@@ -126,7 +127,8 @@ def clock_in(t_ns: int, zone: str) -> str:
     """``2012-10-24 09:00:00``: a UNIX-ns time on the clock of ``zone`` (a zone name info has
     resolved), cut to the second, without the zone's name: ``aion info`` shows every time of
     a log or a map in one zone and names it once."""
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.engine.time_text import from_ns
+    from aion_cli.timeparse import resolve_zone
 
     return from_ns(int(t_ns), resolve_zone(zone)).strftime("%Y-%m-%d %H:%M:%S")
 

@@ -105,7 +105,7 @@ def print_summary(summary: dict[str, Any]) -> None:
     from aion_cli.cli.build_summary import span_text
     from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
-    from aion_cli.log_times import iso
+    from aion_cli.engine.time_text import utc_text
     from aion_cli.number_text import WINDOWS_OBSERVED
 
     table = Table(
@@ -132,8 +132,8 @@ def print_summary(summary: dict[str, Any]) -> None:
         table.add_row("hours observed", markup_safe(summary["hours_observed"]))
     span = summary["time_span"]
     if span["start_ns"] is not None and span["end_ns"] is not None:
-        table.add_row("first time", iso(span["start_ns"]))
-        table.add_row("last time", iso(span["end_ns"]))
+        table.add_row("first time", utc_text(span["start_ns"]))
+        table.add_row("last time", utc_text(span["end_ns"]))
     table.add_row("time span", span_text(span["seconds"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
     print_table(table, err=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from aion_cli.timeparse import Zone
+from aion_cli.engine.time_text import Zone
 
 #: departures a terminal table lists (JSON has every one)
 TABLE_ROWS = 48
@@ -41,7 +41,7 @@ def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
         shown = shown[first : first + TABLE_ROWS]
         note(f"showing {TABLE_ROWS} of {len(rows)} departures around the best: --format json "
              "lists every one")
-    from aion_cli.timeparse import from_ns
+    from aion_cli.engine.time_text import from_ns
 
     labels = short_labels([row["depart_ns"] for row in rows], zone)
     # the day(s) and zone of the times, as predict's series names them: the leave column

@@ -147,8 +147,8 @@ def command(
     histogram of directions.
     """
     from aion_cli.cli.common import load
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.predictions import document, hour_flags, predicted_columns
-    from aion_cli.timeparse import format_ns
 
     time_given = option_given("time_text")
     series = check_series_options(t_from, t_to, step, historical, time_given, tz is not None)

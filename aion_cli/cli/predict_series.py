@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from aion_cli.timeparse import Zone
+from aion_cli.engine.time_text import Zone
 
 #: entries a terminal table shows as columns (JSON and CSV have every entry)
 TABLE_COLUMNS = 8
@@ -73,10 +73,10 @@ def run_series(
     from aion_cli.cli.common import announce_time, series_of
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.output import emit_chunks
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.entry_text import series_csv, series_json
     from aion_cli.prediction_series import SERIES_CSV_KEYS, described, predict_series
     from aion_cli.predictions import hour_flags
-    from aion_cli.timeparse import format_ns
 
     times, zone = series_of(t_from, t_to, step, tz, loaded)
     layer, nodes, at, top = request
@@ -128,7 +128,7 @@ def say_nearest(at: str | None, entry: dict[str, Any] | None) -> None:
 def short_labels(times_ns: list[int], zone: Zone) -> list[str]:
     """Row labels for a terminal: ``08:30`` within one day, ``Mon 08:30`` within a week,
     else ``2026-11-23 08:30``."""
-    from aion_cli.timeparse import clock_labels, from_ns
+    from aion_cli.engine.time_text import clock_labels, from_ns
 
     stamps = [from_ns(t, zone) for t in times_ns]
     days = {s.date() for s in stamps}
@@ -151,7 +151,7 @@ def _print(table: Any, zone: Zone, shown: int, observed: list[bool | None]) -> N
 
     from aion_cli.cli.console import print_table
     from aion_cli.cli.output import printable, small_num
-    from aion_cli.timeparse import from_ns
+    from aion_cli.engine.time_text import from_ns
 
     days = sorted({from_ns(t, zone).date().isoformat() for t in table.times_ns})
     when = days[0] if len(days) == 1 else f"{days[0]} .. {days[-1]}"

@@ -53,8 +53,9 @@ from aion_cli.engine.spatial_hash import cell_centres
 from aion_cli.engine.temporal.groups import groups_moved
 from aion_cli.engine.temporal.held_days import DeferredDays, HeldDay
 from aion_cli.engine.temporal.pending import PendingDay
+from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import F64, I64, U64, BoolA
-from aion_cli.engine.windows import iso, window_index, window_start_ns
+from aion_cli.engine.windows import window_index, window_start_ns
 from aion_cli.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -371,8 +372,9 @@ def overlap_blocker(acc: MapState, shard: MapState) -> str | None:
         return None
     return (
         "these logs start in a time window the map before them had already recorded (window "
-        f"starting {iso(int(window_start_ns(first, shard.window_ns)))}; that map's last starts "
-        f"{iso(int(window_start_ns(acc.open_window, acc.window_ns)))})"
+        f"starting {utc_text(int(window_start_ns(first, shard.window_ns)))}; that map's last "
+        "starts "
+        f"{utc_text(int(window_start_ns(acc.open_window, acc.window_ns)))})"
     )
 
 

@@ -20,18 +20,6 @@ EPOCH_NS: int = 1_578_268_800 * 1_000_000_000
 """The model epoch, 2020-01-06T00:00:00Z (a Monday), in UNIX nanoseconds."""
 
 
-def iso(t_ns: int) -> str:
-    """``2038-01-01 00:00:00 UTC`` for a UNIX-ns time (any Python int): the time as reports,
-    notes and errors print it."""
-    from datetime import UTC, datetime, timedelta
-
-    try:
-        when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=t_ns // 1000)
-    except OverflowError:
-        return f"{t_ns} ns"
-    return when.strftime("%Y-%m-%d %H:%M:%S UTC")
-
-
 def to_model_seconds(t_ns: npt.ArrayLike) -> F64:
     """UNIX nanoseconds -> float64 seconds since :data:`EPOCH_NS` (exact integer subtraction)."""
     t = np.asarray(t_ns, dtype=np.int64)

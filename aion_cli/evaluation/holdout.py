@@ -406,7 +406,8 @@ def _profile_rates(state: MapState, rows: np.ndarray, static: np.ndarray) -> np.
 def _hour_label(hour_ns: int, timezone: str) -> str:
     """The start of an hour (UNIX ns) in the map's zone (an IANA name or an offset such as
     ``UTC+05:30``), ISO 8601 to the minute."""
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.engine.time_text import from_ns
+    from aion_cli.timeparse import resolve_zone
 
     return from_ns(hour_ns, resolve_zone(timezone)).isoformat(timespec="minutes")
 

@@ -23,9 +23,9 @@ from aion_cli.pictures.png_mark import is_aion_png, save_marked_png
 from aion_cli.pictures.topdown import DPI, MAX_PANELS, Marker, PathLine, topdown_figure
 
 if TYPE_CHECKING:
+    from aion_cli.engine.time_text import Zone
     from aion_cli.mapquery import LoadedMap
     from aion_cli.routes import Routes
-    from aion_cli.timeparse import Zone
 
 def check_png_target(out: Path, option: str = "-o") -> None:
     """Refuse, before anything is computed, a target that is not a new PNG file or one aion
@@ -74,7 +74,8 @@ def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
 def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) -> str:
     """``"Mon 2026-01-12 08:40 UTC"`` (in the map's zone), ``"08:40"`` with ``clock_only``;
     ``"as observed (historical)"`` for None."""
-    from aion_cli.timeparse import from_ns, offset_text, repeated_wall_clock, resolve_zone
+    from aion_cli.engine.time_text import from_ns, offset_text, repeated_wall_clock
+    from aion_cli.timeparse import resolve_zone
 
     if t_ns is None:
         return "as observed (historical)"
@@ -89,7 +90,8 @@ def time_title(t_ns: int | None, zone: Zone | None, clock_only: bool = False) ->
 
 def _panel_titles(times: Sequence[int | None], zone: Zone | None) -> list[str]:
     """Panel titles of a series: the clock when every time is on one day, else the day too."""
-    from aion_cli.timeparse import clock_labels, from_ns, resolve_zone
+    from aion_cli.engine.time_text import clock_labels, from_ns
+    from aion_cli.timeparse import resolve_zone
 
     where = zone if zone is not None else resolve_zone("UTC")
     known = [t for t in times if t is not None]
@@ -119,7 +121,8 @@ def _mark_unobserved(
 def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> str:
     """``"office.aion: Mon 2026-01-12 06:00 to 20:00 UTC, 8 times"`` (the day once when the
     series stays in one day)."""
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.engine.time_text import from_ns
+    from aion_cli.timeparse import resolve_zone
 
     first, last = times[0], times[-1]
     if len(times) == 1 or first is None or last is None:

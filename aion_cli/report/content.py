@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from aion_cli.engine.time_text import Zone
 from aion_cli.number_text import WINDOWS_OBSERVED
-from aion_cli.timeparse import Zone
 
 if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
@@ -207,7 +207,8 @@ def wall_steps(day: date, zone: Zone, step_s: int, length_s: int) -> Any:
     day whose clock changes the curve keeps to the clock (the times a change skips are left
     out; a repeated hour is shown once, its first time), where steps of elapsed time from
     midnight would draw every point after the change an hour off."""
-    from aion_cli.timeparse import from_ns, to_ns
+    from aion_cli.engine.time_text import from_ns
+    from aion_cli.timeparse import to_ns
 
     start = datetime.combine(day, time(0))
     out = []
@@ -224,7 +225,7 @@ def series_days(anchor_ns: int, zone: Zone, inside: bool) -> tuple[date, date, d
     the week holding ``anchor_ns`` and, when it is one, that day itself (``inside``: the
     report's ``--time``); else the first week starting after the day of ``anchor_ns`` (the
     end of the observations: the days the map forecasts next), its Monday and Saturday."""
-    from aion_cli.timeparse import from_ns
+    from aion_cli.engine.time_text import from_ns
 
     day = from_ns(anchor_ns, zone).date()
     if inside:

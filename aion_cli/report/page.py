@@ -14,12 +14,12 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from aion_cli.engine.time_text import Zone, format_ns
 from aion_cli.formats.outputs import safe_text
 from aion_cli.merge_names import shown_names
 from aion_cli.note_words import EXTRAPOLATED
 from aion_cli.number_text import fixed, span_text
 from aion_cli.report.content import ReportContent
-from aion_cli.timeparse import Zone, format_ns
 
 FOOTER = "<footer>written by aion "
 """How the page's last line begins: it marks a page as aion's (``report.writer`` replaces only

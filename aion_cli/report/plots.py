@@ -21,9 +21,9 @@ from typing import Any
 
 import numpy as np
 
+from aion_cli.engine.time_text import Zone, from_ns
 from aion_cli.formats.scene_colours import NO_HEADING_TEAL
 from aion_cli.report.content import Busiest, Observed, Series, local_midnight
-from aion_cli.timeparse import Zone, from_ns
 
 DPI = 110
 _NS = 1_000_000_000

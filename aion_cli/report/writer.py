@@ -14,12 +14,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from aion_cli.engine.time_text import Zone
 from aion_cli.exports import check_out_dir, naming
 from aion_cli.formats.output_lock import output_lock
 from aion_cli.formats.outputs import Staged
 from aion_cli.report.content import ROSES, ReportContent, gather
 from aion_cli.report.page import FOOTER
-from aion_cli.timeparse import Zone
 
 PAGE = "index.html"
 TIMELINE, ROSES_PNG, MAP_PNG = "observed.png", "roses.png", "map.png"

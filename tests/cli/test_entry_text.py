@@ -219,8 +219,8 @@ def test_series_cli(sample_map: Path) -> None:
     args = ("--from", "2026-11-23 06:00", "--to", "2026-11-23 09:00", "--tz", "UTC")
     times = [parse_time("2026-11-23 06:00", zone) + k * 3_600 * 10**9 for k in range(4)]
     table = predict_series(loaded, times, "rooms")
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.predictions import hour_flags
-    from aion_cli.timeparse import format_ns
 
     labels = [format_ns(t, zone) for t in times]
     full = described(table, sample_map, zone, labels, hour_flags(loaded, times))

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aion_cli.formats.mcap_records import iso, utc_of
+from aion_cli.engine.time_text import iso_utc, utc_of
 from aion_cli.formats.writers import LogWriter, stamp
 from tests.cli.conftest import run_json
 
@@ -35,12 +35,12 @@ NEW_YEAR_NS = 1_704_067_200 * 10**9  # 2024-01-01T00:00:00Z
     ],
 )
 def test_iso_cuts_to_the_microsecond(t_ns: int, text: str) -> None:
-    assert iso(t_ns) == text
-    assert iso(np.int64(t_ns)) == text  # type: ignore[arg-type]  # as numpy arrays give them
+    assert iso_utc(t_ns) == text
+    assert iso_utc(np.int64(t_ns)) == text  # type: ignore[arg-type]  # as numpy arrays give them
 
 
 def test_iso_of_a_time_no_datetime_holds_is_the_raw_value() -> None:
-    assert iso(10**30) == f"{10**30} ns"
+    assert iso_utc(10**30) == f"{10**30} ns"
     with pytest.raises(OverflowError):
         utc_of(-(10**30))
 

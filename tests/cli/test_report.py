@@ -276,9 +276,10 @@ def test_a_failure_leaves_nothing_behind(
 def test_the_room_curves_are_predicts_room_flows(named_log_map: Path) -> None:
     """The activity curves (``flow_series``, one batch over every time) at a few of their
     times equal ``aion predict --layer rooms`` run at each time."""
+    from aion_cli.engine.time_text import format_ns
     from aion_cli.mapquery import load_map
     from aion_cli.report.content import gather
-    from aion_cli.timeparse import format_ns, resolve_zone
+    from aion_cli.timeparse import resolve_zone
 
     zone = resolve_zone("UTC")
     content = gather(load_map(named_log_map), named_log_map, zone, None)
@@ -347,9 +348,10 @@ def test_the_activity_curves_keep_to_the_clock_on_a_day_it_changes() -> None:
     spring day run into Monday."""
     from datetime import date
 
+    from aion_cli.engine.time_text import from_ns
     from aion_cli.report.content import wall_steps
     from aion_cli.report.plots import _clock_hours
-    from aion_cli.timeparse import from_ns, resolve_zone
+    from aion_cli.timeparse import resolve_zone
 
     zone = resolve_zone("Europe/Berlin")
     spring = wall_steps(date(2026, 3, 29), zone, 900, 86_400)

@@ -6,16 +6,9 @@ from datetime import UTC, datetime, timedelta, timezone
 
 import pytest
 
+from aion_cli.engine.time_text import Zone, format_ns
 from aion_cli.errors import InputError
-from aion_cli.timeparse import (
-    TimeFormatError,
-    Zone,
-    format_ns,
-    local_zone,
-    parse_time,
-    resolve_zone,
-    to_ns,
-)
+from aion_cli.timeparse import TimeFormatError, local_zone, parse_time, resolve_zone, to_ns
 
 BERLIN = resolve_zone("Europe/Berlin")
 UTCZ = resolve_zone("UTC")
@@ -374,7 +367,7 @@ def test_an_offset_reads_as_iso_writes_it_seconds_included() -> None:
     for an offset of seconds (Monrovia until 1972, -00:44:30) read ``44:30``."""
     from zoneinfo import ZoneInfo
 
-    from aion_cli.timeparse import offset_text
+    from aion_cli.engine.time_text import offset_text
 
     for zone, moment in (
         ("Africa/Monrovia", datetime(1960, 1, 1)),

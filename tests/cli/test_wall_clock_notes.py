@@ -14,7 +14,8 @@ from zoneinfo import ZoneInfo
 import pytest
 
 from aion_cli.api import Map
-from aion_cli.timeparse import format_ns, parse_time, resolve_zone, to_ns
+from aion_cli.engine.time_text import format_ns
+from aion_cli.timeparse import parse_time, resolve_zone, to_ns
 from aion_cli.wall_clock import clock_change_note
 from tests.cli.conftest import run
 from tests.engine.temporal_data import corridor

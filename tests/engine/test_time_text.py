@@ -1,0 +1,48 @@
+"""aion_cli.engine.time_text: the one place a UNIX-ns time becomes a datetime or text. The
+expected values are written out by hand (and checked against ``date -u -d @...``)."""
+
+from __future__ import annotations
+
+from datetime import timedelta
+from zoneinfo import ZoneInfo
+
+from aion_cli.engine.time_text import (
+    Zone,
+    format_ns,
+    from_ns,
+    iso_utc,
+    utc_of,
+    utc_text,
+)
+
+S = 10**9
+TOKYO = Zone(ZoneInfo("Asia/Tokyo"), "Asia/Tokyo")
+T = 1_351_038_020 * S  # 2012-10-24 00:20:20 UTC, 09:20:20 in Tokyo
+
+
+def test_the_text_forms_of_one_time() -> None:
+    t = T + 123_456_789
+    assert utc_text(t) == "2012-10-24 00:20:20 UTC"
+    assert iso_utc(t) == "2012-10-24T00:20:20.123456Z"  # cut, never rounded up
+    assert format_ns(t, TOKYO) == "2012-10-24 09:20:20+09:00"
+    assert format_ns(t, TOKYO, millis=True) == "2012-10-24 09:20:20.123+09:00"
+    assert format_ns(T + 999_600_000, TOKYO, millis=True) == "2012-10-24 09:20:21.000+09:00"
+    assert from_ns(t, TOKYO).isoformat() == "2012-10-24T09:20:20.123456+09:00"
+
+
+def test_the_last_nanosecond_of_a_day_stays_in_that_day() -> None:
+    """Through float seconds ``...23:59:59.999999999`` became the next day."""
+    t = 1_700_006_400 * S - 1  # 1 ns before 2023-11-15 00:00:00 UTC
+    assert utc_text(t) == "2023-11-14 23:59:59 UTC"
+    assert iso_utc(t) == "2023-11-14T23:59:59.999999Z"
+    assert utc_of(t) == utc_of(1_700_006_400 * S) - timedelta(microseconds=1)
+
+
+def test_a_time_before_1970_is_cut_towards_the_earlier_microsecond() -> None:
+    assert iso_utc(-1) == "1969-12-31T23:59:59.999999Z"
+    assert utc_text(-1) == "1969-12-31 23:59:59 UTC"
+
+
+def test_a_time_beyond_datetime_is_shown_as_its_number() -> None:
+    assert utc_text(10**30) == f"{10**30} ns"
+    assert iso_utc(-(10**30)) == f"{-(10**30)} ns"
