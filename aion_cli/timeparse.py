@@ -8,6 +8,8 @@ machine's local zone) unless the text carries its own offset:
   form followed by a zone: ``2026-11-23 08:30 Europe/Berlin``, ``tomorrow 12:00 UTC``,
   ``08:30 +01:00``;
 * UNIX time: ``1795420200``, ``@1795420200.5`` (seconds), ``1795420200000000000ns``;
+* wherever seconds go, up to 9 decimals, kept to the nanosecond (``10:00:00.123456789``,
+  ``@1495620000.123456789``); more is an error, never cut;
 * relative to now: ``now``, ``+2h``, ``-30m``, ``+1d12h``, ``now+90s`` (units w, d, h, m, s);
 * a day word and an optional wall-clock time: ``today 17:00``, ``tomorrow 12:00``,
   ``yesterday 08:15:30``, ``monday 08:30`` (the next Monday, today included), ``tomorrow``
@@ -76,6 +78,8 @@ _RE_DATE_CLOCK12 = re.compile(r"^(\d{4}-\d{2}-\d{2})[ t](\d.*[ap]m)$")
 _RE_ZONE_WORD = re.compile(r"^[a-z][a-z0-9_+/-]*$", re.IGNORECASE)
 _RE_OFFSET_WORD = re.compile(r"^[+-]\d{2}(?::?\d{2})?$")
 """A UTC offset written alone after a time (``+01:00``, ``-0500``, ``+05``)."""
+_RE_FRACTION = re.compile(r"(\d:\d{2}:\d{2})[.,](\d+)")
+"""The fraction of a clock's seconds (``10:00:00.123456789``, ISO's ``10:00:00,5`` too)."""
 _RE_OWN_OFFSET = re.compile(r"\d:\d{2}(?::\d{2}(?:\.\d+)?)?\s*(z|[+-]\d{2}(?::?\d{2})?)$")
 """An ISO time's own offset at its end (``...08:30Z``, ``...08:30+02:00``, ``...08:30-05``)."""
 
@@ -218,7 +222,8 @@ def parse_time(
     raw = text
     whole = " ".join(text.strip().split())
     text, zone = _split_zone(whole, zone)
-    text = text.lower()
+    named = len(text) < len(whole)  # a zone named after the time
+    text, below_us = _below_microsecond(text.lower(), raw)
     if not text:
         raise TimeFormatError("empty time", FORMS_HINT)
     current = (now or datetime.now(UTC)).astimezone(zone.tz)
@@ -230,10 +235,33 @@ def parse_time(
         except OverflowError:  # datetime arithmetic beyond year 9999
             raise _out_of_range(raw) from None
         if result is not None:
-            if len(text) < len(whole):  # a zone named after the time: its own offset agrees
+            if named:  # its own offset agrees with the zone
                 _check_own_offset(text, zone, result, raw)
-            return check_range(result, raw)
+            return check_range(result + below_us, raw)
     raise _unreadable(raw, zone, now)
+
+
+def _below_microsecond(text: str, raw: str) -> tuple[str, int]:
+    """``text`` with the digits of its seconds' fraction past the sixth taken off, and the
+    nanoseconds they are (``10:00:00.123456789`` -> ``10:00:00.123456`` and 789): a
+    ``datetime`` holds microseconds and ``fromisoformat`` cut the rest without a word, while
+    aion's times are whole nanoseconds. A digit other than 0 past the 9th is a
+    :class:`TimeFormatError`: it would be cut."""
+    match = _RE_FRACTION.search(text)
+    if match is None or len(match.group(2)) <= 6:
+        return text, 0
+    digits = match.group(2)  # zeros past the 9th are no precision lost
+    if digits[9:].strip("0"):
+        raise _past_nanoseconds(raw, len(digits.rstrip("0")))
+    cut = match.start(2) + 6
+    return text[:cut] + text[match.end(2) :], int(digits[6:9].ljust(3, "0"))
+
+
+def _past_nanoseconds(raw: str, decimals: int) -> TimeFormatError:
+    return TimeFormatError(
+        f"the time {raw!r} has {decimals} decimals: aion's times are whole nanoseconds",
+        "give at most 9 decimals of a second",
+    )
 
 
 def _check_own_offset(text: str, zone: Zone, t_ns: int, raw: str) -> None:
@@ -344,6 +372,9 @@ def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
         if value != value.to_integral_value():
             raise TimeFormatError(f"nanoseconds must be an integer: {text!r}", FORMS_HINT)
         return int(value)
+    decimals = len(number.partition(".")[2].rstrip("0"))
+    if decimals > 9:  # int() below would cut them
+        raise _past_nanoseconds(text, decimals)
     if abs(value) > Decimal(10) ** 11:
         raise TimeFormatError(
             f"{text!r} is beyond year 5000 as UNIX seconds",
