@@ -133,7 +133,8 @@ def _unused_pointer(report: dict[str, Any]) -> str:
     "--tz",
     metavar="ZONE",
     help="Logs: the zone the table shows every time in (the first and last message, the "
-    "observed spans, a fixed sensor's hours with messages; named once) (IANA name, UTC, "
+    "observed spans, a fixed sensor's hours with messages; named once; the warnings' times "
+    "with its offset) (IANA name, UTC, "
     "+01:00, local) [default: the zone the logs declare (aion convert or simulate --tz), "
     "else UTC, as aion build reads them without --tz]. JSON times stay UNIX ns and UTC.",
 )
@@ -306,7 +307,8 @@ def _seconds_text(seconds: float) -> str:
 def _print(report: dict[str, Any], zone: str = "UTC") -> None:
     """The table of a log report, every time of the logs on the clock of ``zone`` (the one
     a build follows: :func:`aion_cli.log_zone.build_zone`, or ``--tz``), which the header
-    names once (or, for logs without messages, the first note with a time). Every string
+    names once (or, for logs without messages, the first note with a time), the warnings'
+    times with its offset (:func:`aion_cli.engine.time_text.on_clock`). Every string
     that comes from the log (topic and type names, reasons naming topics, versions,
     warnings) or from the command line (file names) goes through :func:`markup_safe`: a
     topic named ``/x<ESC>[2J`` shows as ``/x\x1b[2J`` instead of clearing the screen, and
@@ -480,4 +482,8 @@ def _print(report: dict[str, Any], zone: str = "UTC") -> None:
             "follows it unless --tz is given",
             soft_wrap=True,
         )
-    warn_each(list(report["warnings"]))
+    from aion_cli.engine.time_text import on_clock
+    from aion_cli.timeparse import resolve_zone
+
+    shown = resolve_zone(zone)  # the warnings' times (written in UTC) on the table's clock
+    warn_each([on_clock(str(w), shown) for w in report["warnings"]])

@@ -11,11 +11,13 @@ day; floor division cuts a time before 1970 towards the earlier microsecond too.
   (``aion info``'s ``start`` and ``end``, readers' warnings naming a message);
 * :func:`format_ns`: ``2026-11-23 08:30:00+01:00``, a time on a zone's clock with its offset
   (:func:`offset_text`), and :func:`clock_labels`, times in a zone as labels that never read
-  alike for two instants (the hour a clock change repeats).
+  alike for two instants (the hour a clock change repeats);
+* :func:`on_clock`: a message's times in the first two forms, read again on a zone's clock.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta, tzinfo
@@ -106,3 +108,33 @@ def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
         f"{label} {offset_text(s)}" if len(instants[label]) > 1 else label
         for label, s in zip(labels, stamps, strict=True)
     ]
+
+
+_UTC_FORMS = re.compile(
+    r"\b(\d{4}-\d{2}-\d{2}) (\d{2}:\d{2}:\d{2}) UTC\b"  # utc_text's
+    r"|\b(\d{4}-\d{2}-\d{2})T(\d{2}:\d{2}:\d{2})\.(\d{6})Z\b"  # iso_utc's
+)
+
+
+def on_clock(text: str, zone: Zone) -> str:
+    """``text`` (a warning, a note) with each time :func:`utc_text` or :func:`iso_utc` wrote
+    in it read again on ``zone``'s clock with its offset, at the precision it had:
+    ``2012-10-24 00:20:20 UTC`` -> ``2012-10-24 09:20:20+09:00``,
+    ``2012-10-24T00:20:20.500000Z`` -> ``2012-10-24T09:20:20.500000+09:00`` (Asia/Tokyo).
+    Messages are written in UTC wherever they arise (a reader knows no zone); a command that
+    shows every time on one zone's clock passes its messages through this. Unchanged in UTC."""
+    if zone.tz is UTC:
+        return text
+
+    def local(match: re.Match[str]) -> str:
+        day, clock, day_us, clock_us, micros = match.groups()
+        try:
+            if day is not None:
+                moment = datetime.fromisoformat(f"{day}T{clock}+00:00")
+                return moment.astimezone(zone.tz).isoformat(sep=" ", timespec="seconds")
+            moment = datetime.fromisoformat(f"{day_us}T{clock_us}.{micros}+00:00")
+            return moment.astimezone(zone.tz).isoformat(timespec="microseconds")
+        except (ValueError, OverflowError):  # no date (2023-02-30), or the zone's is beyond 9999
+            return match.group(0)
+
+    return _UTC_FORMS.sub(local, text)

@@ -101,3 +101,37 @@ def test_info_map_agrees_with_info_log_on_one_clock(tmp_path: Path) -> None:
     header = _said(run("info", log))
     start, end = re.search(r"\((\S+ \S+) \.\. (\S+ \S+) Asia/Tokyo\)", header).groups()  # type: ignore[union-attr]
     assert (start[:16], end[:16]) == ("2012-10-24 09:00", "2012-10-24 20:59")
+
+
+def test_info_log_warnings_give_their_times_on_the_same_clock(tmp_path: Path) -> None:
+    """40 rows from 2012-10-24 00:20:20 UTC and one 400 days later (2013-11-28 00:20:20 UTC,
+    09:20:20 in Tokyo, 01:20:20 in Berlin's winter), converted with ``--tz Asia/Tokyo``:
+    info's warning about the stray time gave both its span and the stray time in UTC under a
+    header in Asia/Tokyo. Now on the table's clock with its offset; ``--tz UTC`` and JSON
+    as before."""
+    rows = [f"{FIRST_S + k}.0,1,{k * 0.5:.1f},0.0,1.0,0.0" for k in range(40)]
+    rows.append(f"{FIRST_S + 400 * 86_400}.0,2,1.0,0.0,1.0,0.0")
+    src = tmp_path / "atc.csv"
+    src.write_text("\n".join(rows) + "\n")
+    log = tmp_path / "atc.mcap"
+    made = run("convert", src, "--layout", "atc", "-o", log, "--tz", "Asia/Tokyo", "-q")
+    assert made.exit_code == 0, made.stderr
+    utc_warning = (
+        "stray log time(s) left out of the span shown (2012-10-24 00:20:20 UTC .. "
+        "2012-10-24 00:20:59 UTC): 1 on /people_tracker/tracked_persons (first: "
+        "2013-11-28 00:20:20 UTC)"
+    )
+    table = _said(run("info", log))
+    assert "(2012-10-24 09:20:20 .. 2012-10-24 09:20:59 Asia/Tokyo)" in table  # the header
+    assert (
+        "stray log time(s) left out of the span shown (2012-10-24 09:20:20+09:00 .. "
+        "2012-10-24 09:20:59+09:00): 1 on /people_tracker/tracked_persons (first: "
+        "2013-11-28 09:20:20+09:00)"
+    ) in table
+    assert "UTC" not in table
+    berlin = _said(run("info", log, "--tz", "Europe/Berlin"))
+    assert "(2012-10-24 02:20:20+02:00 .. 2012-10-24 02:20:59+02:00)" in berlin  # summer time
+    assert "(first: 2013-11-28 01:20:20+01:00)" in berlin
+    assert utc_warning in _said(run("info", log, "--tz", "UTC"))
+    doc = run_json("info", log, "--format", "json")
+    assert any(utc_warning in w for w in doc["warnings"]), doc["warnings"]

@@ -3,7 +3,7 @@ expected values are written out by hand (and checked against ``date -u -d @...``
 
 from __future__ import annotations
 
-from datetime import timedelta
+from datetime import UTC, timedelta, timezone
 from zoneinfo import ZoneInfo
 
 from aion_cli.engine.time_text import (
@@ -11,6 +11,7 @@ from aion_cli.engine.time_text import (
     format_ns,
     from_ns,
     iso_utc,
+    on_clock,
     utc_of,
     utc_text,
 )
@@ -46,3 +47,31 @@ def test_a_time_before_1970_is_cut_towards_the_earlier_microsecond() -> None:
 def test_a_time_beyond_datetime_is_shown_as_its_number() -> None:
     assert utc_text(10**30) == f"{10**30} ns"
     assert iso_utc(-(10**30)) == f"{-(10**30)} ns"
+
+
+def test_on_clock_reads_both_utc_forms_again_on_a_zone_clock() -> None:
+    text = (
+        f"a message on /tracks at {iso_utc(T + 500_000_000)} skipped; first: {utc_text(T)}; "
+        "the range is 1900-01-01 .. 2261-01-01 UTC"
+    )
+    assert on_clock(text, TOKYO) == (
+        "a message on /tracks at 2012-10-24T09:20:20.500000+09:00 skipped; first: "
+        "2012-10-24 09:20:20+09:00; the range is 1900-01-01 .. 2261-01-01 UTC"
+    )
+    assert on_clock(text, Zone(UTC, "UTC")) == text
+
+
+def test_on_clock_gives_each_side_of_a_clock_change_its_offset() -> None:
+    """Berlin's autumn change repeats 02:00..03:00: the two times read alike but for their
+    offsets, as their UTC forms differ."""
+    berlin = Zone(ZoneInfo("Europe/Berlin"), "Europe/Berlin")
+    first = on_clock("2026-10-25 00:30:00 UTC", berlin)
+    second = on_clock("2026-10-25 01:30:00 UTC", berlin)
+    assert (first, second) == ("2026-10-25 02:30:00+02:00", "2026-10-25 02:30:00+01:00")
+
+
+def test_on_clock_leaves_what_no_zone_can_show() -> None:
+    west = Zone(timezone(-timedelta(hours=5)), "-05:00")
+    assert on_clock("0001-01-01 00:00:00 UTC", west) == "0001-01-01 00:00:00 UTC"
+    assert on_clock("2023-02-30 00:00:00 UTC", west) == "2023-02-30 00:00:00 UTC"
+    assert on_clock("1795420200000000000 ns", west) == "1795420200000000000 ns"
