@@ -75,3 +75,21 @@ def test_on_clock_leaves_what_no_zone_can_show() -> None:
     assert on_clock("0001-01-01 00:00:00 UTC", west) == "0001-01-01 00:00:00 UTC"
     assert on_clock("2023-02-30 00:00:00 UTC", west) == "2023-02-30 00:00:00 UTC"
     assert on_clock("1795420200000000000 ns", west) == "1795420200000000000 ns"
+
+
+def test_the_module_needs_the_standard_library_only() -> None:
+    """Every layer imports it (formats, the engine, the CLI), so it imports none of them."""
+    import ast
+    import sys
+    from pathlib import Path
+
+    import aion_cli.engine.time_text as module
+
+    tree = ast.parse(Path(str(module.__file__)).read_text())
+    roots = {
+        (node.module or "").split(".")[0] if isinstance(node, ast.ImportFrom) else alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+        for alias in node.names
+    }
+    assert roots <= set(sys.stdlib_module_names) | {"__future__"}, roots
