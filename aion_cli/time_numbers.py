@@ -19,7 +19,8 @@ def refuse_misread_number(text: str) -> None:
     * negative (``-5``): read as UNIX seconds it was 1969-12-31 23:59:55 UTC, where a time
       before now (``-5h``, as ``-30m`` is) lacked its unit.
     """
-    from aion_cli.timeparse import NS_PER_S, TimeFormatError, format_ns, resolve_zone
+    from aion_cli.engine.time_text import format_ns
+    from aion_cli.timeparse import NS_PER_S, TimeFormatError, resolve_zone
 
     utc = resolve_zone("UTC")
     seconds = float(text)

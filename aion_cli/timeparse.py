@@ -31,7 +31,7 @@ from pathlib import Path
 from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from aion_cli.engine.temporal.zones import suggest_zone, zone_key, zone_of
-from aion_cli.engine.time_text import EPOCH, Zone, format_ns, from_ns, offset_text
+from aion_cli.engine.time_text import EPOCH, Zone, from_ns, offset_text
 from aion_cli.errors import ConfigError, InputError
 from aion_cli.time_numbers import refuse_misread_number
 
