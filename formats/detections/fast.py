@@ -264,7 +264,8 @@ def decode_detection3d(j: Joined, flt: ClassFilter) -> Decoded:
     )
     if active_filter:
         out = _select(out, keep)
-        out.filtered["class"] = int((~keep).sum())
+        if not keep.all():  # a reason with no drop is not listed, as Rows.drop lists them
+            out.filtered["class"] = int((~keep).sum())
     return out
 
 
