@@ -100,6 +100,21 @@ class MessageDecodeError(InputError):
     """A message payload cannot be decoded (wrong type, truncated, unknown version)."""
 
 
+class MissingDefinitionError(MessageDecodeError):
+    """The log carries no definition of a message type and aion ships none (a rosbag2 of
+    sqlite3 storage recorded by ROS 2 Humble or earlier records none): nothing, not even a
+    TOML mapping, can decode its messages."""
+
+
+NO_DEFINITION_HINT = (
+    "the log records no message definitions (as rosbag2 bags of sqlite3 storage from ROS 2 "
+    "Humble and earlier do): record with `ros2 bag record -s mcap`, which stores them, or "
+    "convert the bag to MCAP storage with `ros2 bag convert` in a shell where the type's "
+    "package is sourced"
+)
+"""What to do about a :class:`MissingDefinitionError`."""
+
+
 class PartialGraphError(InputError):
     """A scene-graph message holds part of a graph (a ``hydra_msgs/DsgUpdate`` whose
     ``full_update`` is false), which would read as a graph without the rest of its nodes."""

@@ -87,7 +87,8 @@ from aion_cli.tf_feed import (
     read_tf_and_times,
     with_static_tf,
 )
-from aion_cli.topics import TopicPlan, no_detection_topic
+from aion_cli.topic_mappable import no_detection_topic
+from aion_cli.topics import TopicPlan
 
 if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper

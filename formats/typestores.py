@@ -12,7 +12,7 @@ import re
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.errors import MessageDecodeError
+from aion_cli.errors import NO_DEFINITION_HINT, MessageDecodeError, MissingDefinitionError
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
@@ -39,9 +39,9 @@ def _store_with_definition(
         shipped = msgdefs.typestore(ros_version)
         if msgtype in shipped.fielddefs:
             return shipped
-        raise MessageDecodeError(
+        raise MissingDefinitionError(
             f"the log has no definition for {msgtype} and aion ships none",
-            hint="give a log recorded with message definitions (ROS 2 Iron or later, MCAP)",
+            hint=NO_DEFINITION_HINT,
         )
     types = _parse_definition(definition, msgtype, idl)
     _check_fields(types, msgtype, ros_version, idl)

@@ -99,11 +99,18 @@ def _unused_pointer(report: dict[str, Any]) -> str:
     """What info's note on a log without a usable detection topic points to: the generic
     topics skipped for their names, a topic `--suggest-mapping` writes a mapping for
     (``mapping_example``), or that no type of the log holds a position."""
+    from aion_cli.errors import NO_DEFINITION_HINT
+    from aion_cli.topic_mappable import NO_DEFINITION_REASON
+
     generic = any(t.get("why", "").endswith("--detections-topic)") for t in report["topics"])
+    undefined = any(t.get("why", "").endswith(NO_DEFINITION_REASON) for t in report["topics"])
     example = report.get("mapping_example")
     parts = ["name a generic one with --detections-topic"] if generic else []
     if example is not None:
         parts.append(f"map another type: aion info LOG --suggest-mapping {example}")
+    elif undefined:
+        parts.append(f"no --detections-mapping can read a type the log does not define: "
+                     f"{NO_DEFINITION_HINT}")  # fmt: skip
     elif not generic:
         parts.append("none of its types has a field a --detections-mapping could read as a "
                      "position")  # fmt: skip

@@ -35,7 +35,8 @@ def describe(
     from aion_cli.message_hours import fixed_sensor_windows
     from aion_cli.provenance import distinct_logs
     from aion_cli.stamp_warnings import sim_time_warning
-    from aion_cli.topics import refine_reasons, select_topics
+    from aion_cli.topic_mappable import refine_reasons
+    from aion_cli.topics import select_topics
 
     mappings = _mappings(mapping)
     example: str | None = None
@@ -74,7 +75,7 @@ def describe(
             add_frames(report, logset, plan, mappings, not _no_graph_robot(firsts))
             report["warnings"] += _overlaps(logset, plan)
         else:
-            from aion_cli.topics import mapping_example
+            from aion_cli.topic_mappable import mapping_example
 
             example = mapping_example(logset)
     used = plan.names("detections") | plan.names("graph") | plan.names("tf")
@@ -198,7 +199,7 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
     topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
     from aion_cli.formats.detections.suggest import refuse_service_events, suggest_mapping
     from aion_cli.formats.logs import open_logs
-    from aion_cli.topics import refuse_not_people
+    from aion_cli.topic_mappable import refuse_not_people
 
     with open_logs(paths, log_format) as logset:
         info = logset.topic(topic)
