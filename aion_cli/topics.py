@@ -251,10 +251,14 @@ def _mapped_topics(
     for m in mappings:
         info = by_name.get(m.topic)
         if info is None:
+            from aion_cli.formats.raw import topic_spelling_hint
+
+            near = topic_spelling_hint(m.topic, by_name)
             raise TopicNotFoundError(
                 f"the detections mapping names topic {m.topic!r}, which is not in the log",
                 candidates=[f"{t.topic} ({t.msgtype})" for t in by_name.values()],
-                hint="fix `topic = ...` in the mapping; `aion info LOG` lists the topics",
+                hint="fix `topic = ...` in the mapping; "
+                + (near or "`aion info LOG` lists the topics"),
             )
         if info.msgtype != m.msgtype:
             raise TopicNotFoundError(

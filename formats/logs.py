@@ -49,7 +49,7 @@ from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_paths import open_sources
 from aion_cli.formats.log_source import LogFile, OtherChannel, _Source
-from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint
+from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint, topic_spelling_hint
 from aion_cli.formats.typestores import _store_with_definition
 
 if TYPE_CHECKING:
@@ -174,9 +174,8 @@ class LogSet:
         if unreadable is not None:
             raise unreadable_topic_error(name, unreadable)
         candidates = [f"{t.topic} ({t.msgtype})" for t in self.topics]
-        raise TopicNotFoundError(
-            f"topic {name!r} is not in the log", candidates=candidates, hint="see `aion info LOG`"
-        )
+        hint = topic_spelling_hint(name, (t.topic for t in self.topics)) or "see `aion info LOG`"
+        raise TopicNotFoundError(f"topic {name!r} is not in the log", candidates, hint)
 
     def total(self, topics: Iterable[str] | None = None) -> int:
         """Number of messages on ``topics`` (all when None), from the indexes."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -29,6 +30,18 @@ def normalize_frame(frame_id: str) -> str:
     """Frame ids without the leading slash ROS 1 tools sometimes add (and surrounding
     whitespace): the one spelling TF, the detections' frames and ``--map-frame`` compare."""
     return frame_id.strip().lstrip("/")
+
+
+def topic_spelling_hint(name: str, topics: Iterable[str]) -> str | None:
+    """What a hint says when ``name`` is not a topic of the log but one of ``topics`` is the
+    same name with (or without) a leading slash: rosbag2 and ROS 1 record ``/my/topic``, and
+    a ROS 2 user may well type ``my/topic``. None when no topic is spelled so."""
+    bare = name.strip().strip("/")
+    for topic in topics:
+        if topic != name and topic.strip("/") == bare:
+            slash = "with" if topic.startswith("/") else "without"
+            return f"the log calls it {topic} ({slash} a leading '/')"
+    return None
 
 
 @dataclass(frozen=True)
