@@ -157,10 +157,10 @@ class ItemSpec:
             frame = self.fixed_frame
         items = self.array.get(msg) if self.array else [msg]
         for it in items:
-            if self.keep is not None and (reason := self.keep(it)) is not None:
-                rows.drop(reason)
-                continue
-            try:
+            try:  # the filter's path too: an empty results[] has no results[0] to compare
+                if self.keep is not None and (reason := self.keep(it)) is not None:
+                    rows.drop(reason)
+                    continue
                 self._item(it, owner, stamp, frame, rows)
             except ShortArrayError:  # this item's sequence is too short for the path
                 rows.drop("short_array")
