@@ -47,6 +47,19 @@ after decoding for any reason: no transform, a non-finite or out-of-range positi
 window) gets a warning with the counts, even with ``-q``. Messages that cannot be decoded, or
 whose log times are stray, are warned about separately, whatever their number."""
 
+def _class_hint(topics: list[str]) -> str:
+    """The hint of a build whose every detection the class filter dropped: what it keeps, and
+    how to read a tracker whose people have another class or none (a mapping, which has no
+    class filter unless it gives one)."""
+    topic = topics[0] if len(topics) == 1 else "TOPIC"
+    return (
+        "aion keeps the vision_msgs detections of class 'person' and the ZED objects labelled "
+        "'Person' (or unlabelled) only; to read other classes or none, read the topic with a "
+        f"mapping (`aion info LOG --suggest-mapping {topic}` writes one, without a class "
+        "filter; add filter = { field = ..., equals = [...] } to keep some classes); "
+    )
+
+
 #: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
 _DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
 
@@ -394,9 +407,10 @@ def check_usable(
                 if read_warnings
                 else ""
             )
-            + "the topics carry no detections (check the class filter of vision_msgs, "
-            f"or choose other topics with --detections-topic); {written}",
-        )
+            + (_class_hint(report.detection_topics) if c.dropped.get("class") else
+               "the topics carry no detections (choose other topics with --detections-topic); ")
+            + written,
+        )  # fmt: skip
     hint = written
     if c.dropped.get("no_transform"):
         why = f"{c.no_transform_why}; " if c.no_transform_why else ""
