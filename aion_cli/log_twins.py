@@ -58,9 +58,12 @@ def _read(
     return out
 
 
-def _detections(messages: list[RawMessage], adapter_of: AdapterOf, topics: tuple[str, ...]) -> F64:
+def _detections(
+    messages: list[RawMessage], adapter_of: AdapterOf, topics: tuple[str, ...] = ()
+) -> F64:
     """Rows ``t (s), x, y, z, source`` of the detections of ``messages`` sorted by time;
-    ``source`` tells topic and frame apart (detections of two sources never match)."""
+    ``source`` tells topic (one of ``topics``; none when empty) and frame apart (detections
+    of two sources never match)."""
     groups: dict[tuple[str, str, str], list[RawMessage]] = {}
     for m in messages:
         groups.setdefault((m.topic, m.msgtype, m.encoding), []).append(m)
@@ -68,7 +71,7 @@ def _detections(messages: list[RawMessage], adapter_of: AdapterOf, topics: tuple
     for key, group in groups.items():
         found = adapter_of(*key).decode(group, on_error="skip")
         frames = np.array([zlib.crc32(f.encode()) for f in found.frames] or [0], np.float64)
-        source = topics.index(key[0]) * 2.0**32 + frames[found.frame_id]
+        source = (topics.index(key[0]) * 2.0**32 if topics else 0.0) + frames[found.frame_id]
         rows = np.c_[(found.t_ns - _EPOCH) * 1e-9, found.xyz, source]
         parts.append(rows[np.isfinite(rows).all(axis=1)])
     rows = np.concatenate(parts)
@@ -106,11 +109,53 @@ def same_people(logset: Any, o: Overlap, adapter_of: AdapterOf) -> bool | None:
     span = (first[0].log_time_ns, first[-1].log_time_ns + 1)
     a = _detections(first, adapter_of, o.topics)
     b = _detections(_read(logset, j, topics, span, MAX_OTHER_MESSAGES), adapter_of, o.topics)
+    share = _shared_time_share(a, b)
+    return None if share is None else share >= 0.5
+
+
+def _shared_time_share(a: F64, b: F64) -> float | None:
+    """The larger :func:`_near_share` either way round, each against the other where both
+    have detections (the other may start later, or a sample end sooner); None when there
+    is no such time."""
     if len(a) == 0 or len(b) == 0:
         return None
-    # each against the other where both have detections (the other may start later)
     t0, t1 = max(a[0, 0], b[0, 0]) - NEAR_S, min(a[-1, 0], b[-1, 0]) + NEAR_S
     a, b = a[(a[:, 0] >= t0) & (a[:, 0] <= t1)], b[(b[:, 0] >= t0) & (b[:, 0] <= t1)]
     if len(a) == 0 or len(b) == 0:
         return None
-    return max(_near_share(a, b), _near_share(b, a)) >= 0.5
+    return max(_near_share(a, b), _near_share(b, a))
+
+
+def topic_twin_warnings(logset: Any, topics: list[str], adapter_of: AdapterOf) -> list[str]:
+    """A warning per pair of the build's detection topics that hold the same people (two
+    trackers of one sensor, a tracker's detections beside its tracks): at least half of one
+    topic's detections in its first :data:`SAMPLE_MESSAGES` messages have one of the other's
+    within :data:`NEAR_S` and :data:`NEAR_M`, in the same frame. Every topic is used, so each
+    such person counts once per topic. Topics in other frames, or of other people, do not
+    warn; nor does a topic the comparison cannot decode (the build says why)."""
+    from itertools import islice
+
+    from aion_cli.errors import AionError
+
+    if len(topics) < 2:
+        return []
+    rows: dict[str, F64] = {}
+    for topic in topics:
+        first = list(islice(logset.messages([topic]), SAMPLE_MESSAGES))
+        try:
+            rows[topic] = _detections(first, adapter_of)
+        except AionError:
+            continue
+    out = []
+    named = [t for t in topics if t in rows and len(rows[t])]
+    for i, a in enumerate(named):
+        for b in named[i + 1 :]:
+            share = _shared_time_share(rows[a], rows[b])
+            if share is not None and share >= 0.5:
+                out.append(
+                    f"{a} and {b} hold the same people at the same times and places ({share:.0%} "
+                    f"of one's detections have one of the other's within {NEAR_S:g} s and "
+                    f"{NEAR_M:g} m): every person they both saw counts twice; build from one "
+                    f"of them with --detections-topic {a}"
+                )
+    return out

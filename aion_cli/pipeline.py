@@ -75,6 +75,7 @@ from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
 from aion_cli.log_times import TopicTimes, overlap_warnings
+from aion_cli.log_twins import topic_twin_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap
 from aion_cli.provenance import DistinctLogs, distinct_logs
@@ -288,6 +289,7 @@ class _Build(StreamStep):
             self.report.warnings.extend(  # logs of one time holding the same detections
                 overlap_warnings(logset, plan.names("detections"), window_ns(config.window_s),
                                  adapter_of)
+                + topic_twin_warnings(logset, self.report.detection_topics, adapter_of)
             )
             self.report.notes.extend(notes)
             self.continue_on_logs(logset, plan)  # the logs' graphs: the map's session?

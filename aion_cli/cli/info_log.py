@@ -143,8 +143,9 @@ def _rate_over(topic: Any, recorded_ns: int | None) -> Any:
 
 def _overlaps(logset: Any, plan: Any) -> list[str]:
     """The warnings ``aion build`` gives of logs that hold a detection topic over the same
-    time with the same people (they count twice), over the default model's windows, the
-    detections compared with the adapters the build would use."""
+    time with the same people (they count twice), over the default model's windows, and of
+    detection topics that hold the same people, the detections compared with the adapters
+    the build would use."""
     from aion_cli.detection_feed import log_adapters
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.windows import window_ns
@@ -155,10 +156,12 @@ def _overlaps(logset: Any, plan: Any) -> list[str]:
         adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
     except AionError:  # the build will stop on it; the shared time alone warns, as it did
         return overlap_warnings(logset, plan.names("detections"), window_ns(ModelConfig().window_s))
+    from aion_cli.log_twins import topic_twin_warnings
+
+    adapter_of = lambda *key: adapters.get(key) or factory(*key)  # noqa: E731
     return overlap_warnings(
-        logset, plan.names("detections"), window_ns(ModelConfig().window_s),
-        lambda *key: adapters.get(key) or factory(*key),
-    )
+        logset, plan.names("detections"), window_ns(ModelConfig().window_s), adapter_of
+    ) + topic_twin_warnings(logset, sorted(plan.names("detections")), adapter_of)
 
 
 def _recorded_spans(logs: Any) -> dict[str, list[dict[str, Any]]]:
