@@ -148,6 +148,7 @@ def unposed_log_windows(
     robot: Callable[[int, int], bool],
     notes: list[str],
     report: Any = None,
+    whole: TimeCheck | None = None,
 ) -> str | None:
     """Beside a robot's observation, the logs it does not observe: the logs, grouped as a
     parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
@@ -159,7 +160,13 @@ def unposed_log_windows(
     log without any robot trajectory is a fixed sensor, also when another log of the build
     has one. Sets the Mapper's windows for them and returns the report's description of that
     observation, or None when the robot observes every group; a note names those logs (a
-    robot log whose localisation was not recorded is read so too)."""
+    robot log whose localisation was not recorded is read so too).
+
+    ``whole``: a time shard's check without its limits (``times`` is limited to the part,
+    :meth:`~aion_cli.log_times.TimeCheck.limited`). A group is judged by all its windows,
+    as one pass judges it, and only its windows inside the part become fixed: judged by the
+    part's windows alone, a part after the robot's last pose (or before its first) read a
+    group the robot observes as a fixed sensor."""
     from aion_cli.engine.windows import window_ns
     from aion_cli.formats.recorded import windows_of
     from aion_cli.parallel_build import plan_shards
@@ -171,8 +178,10 @@ def unposed_log_windows(
     keys = dict.fromkeys(logset.recordings)  # in the order recorded_windows_by_recording joins
     held: dict[int, I64] = {}
     names: dict[int, str] = {}
+    judged: dict[int, I64] = {}  # each log's windows over the whole logs' time
     joined = logset.recorded_windows_by_recording(delta)
     for key, (file, recorded) in zip(keys, joined, strict=True):
+        judged[key] = recorded[(whole or times).within_runs(recorded, delta)]
         recorded = recorded[times.inside_limits(recorded * delta)]
         held[key] = recorded[times.within_runs(recorded, delta)]
         names[key] = file.path.name
@@ -183,9 +192,10 @@ def unposed_log_windows(
         recorded = np.unique(np.concatenate([held[key] for key in group]))
         if recorded.size == 0:
             continue
-        lo, hi = int(recorded[0]), int(recorded[-1])
-        if robot(lo, hi):
+        seen = np.concatenate([judged[key] for key in group])
+        if robot(int(seen.min()), int(seen.max())):
             continue  # the robot's poses say what these logs observed
+        lo, hi = int(recorded[0]), int(recorded[-1])
         parts.append(np.union1d(recorded, read[(read >= lo) & (read <= hi)]))
         fixed.extend(names[key] for key in group)
     if not parts:

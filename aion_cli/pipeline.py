@@ -412,6 +412,7 @@ class _Build(StreamStep):
             self.opts.observed, self._detection_windows,
             observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
             self._marks,
+            self._whole_times,
         )
 
     def _fixed_graph(

@@ -307,6 +307,7 @@ def observe(
     detection_windows: I64 | None = None,
     fill: tuple[int | None, int | None] = (None, None),
     marks: I64 | None = None,
+    whole: TimeCheck | None = None,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -320,26 +321,32 @@ def observe(
     windows without one are counted in a note (:func:`silent_note`). Beside a robot
     trajectory, logs of other times that hold none of its poses are fixed sensors over their
     own windows (:func:`unposed_log_windows`), as a build of them alone (a continuation, a
-    parallel shard) observes them."""
+    parallel shard) observes them. ``whole``: a time shard's ``times`` without its limits;
+    whether the robot observes a group of logs is judged by all its poses, not the part's."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
         report.notes.append(no_trajectory(tf, map_frame, base_frame))
     if traj is not None:
+        delta = window_ns(mapper.state.config.window_s)
+        # every pose's window, also a time shard's outside its part (one pass judges a group
+        # of logs by all of them: fixed_sensor.unposed_log_windows)
+        every = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
         part = times.inside_limits(traj.t_ns)  # a time shard observes with its own poses
         if not part.all():
             traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
         mapper.add_trajectory(traj)
         report.observation = f"tf {map_frame}->{base_frame}"
         _ignored(declared, report.observation, report.warnings)
-        delta = window_ns(mapper.state.config.window_s)
         poses = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
 
         def posed(lo: int, hi: int) -> bool:
-            at = int(np.searchsorted(poses, lo))
-            return at < poses.size and int(poses[at]) <= hi
+            at = int(np.searchsorted(every, lo))
+            return at < every.size and int(every[at]) <= hi
 
-        unposed = unposed_log_windows(mapper, logset, times, posed, report.notes, report)
+        unposed = unposed_log_windows(
+            mapper, logset, times, posed, report.notes, report, whole
+        )
         if unposed is not None:
             report.observation += " + " + unposed
         if detection_windows is not None:
@@ -358,6 +365,7 @@ def observe(
             lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta)),
             report.notes,
             report,
+            whole,
         )
         if unposed is not None:
             report.observation += " + " + unposed

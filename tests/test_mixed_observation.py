@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from aion_cli.pipeline import BuildOptions, build_map
 from tests.cli.logdata import write_office_log
 from tests.time_shard_logs import build_logs, same_maps
@@ -161,3 +163,35 @@ def test_a_robot_shard_with_its_own_fixed_sensor_logs_adds_their_windows_once() 
     assert [n.split(":")[0] for n in named] == [
         "3 log(s) of other times than the robot's hold no robot pose (d1.mcap, d2.mcap, d8.mcap)"
     ]
+
+
+
+@pytest.mark.parametrize(
+    ("shift_s", "later_s", "cut_after"),
+    [
+        # people from 09:00:03 to 09:59:53 and from 11:00:03: the cut after the last pose
+        (HOUR_S - 2, 2 * HOUR_S, "2026-11-23 10:00"),
+    ],
+)
+def test_a_time_shard_without_the_robots_poses_observes_as_one_pass(
+    tmp_path: Path, shift_s: int, later_s: int, cut_after: str
+) -> None:
+    """A tracker's log touching a robot's (one group of logs: the robot's poses say what they
+    observed) records another hour, apart from the robot's, so a parallel build cuts the group
+    between the two into time shards, one of them without a robot pose. One pass judges the
+    group by all its poses (its windows without a pose are unobserved); the part without a
+    pose judged its own windows only and read the group as a fixed sensor over them."""
+    robot, tracker = tmp_path / "r.mcap", tmp_path / "t.mcap"
+    write_office_log(robot, graph=False, duration_s=HOUR_S)  # poses 08:00-08:59:55
+    write_office_log(
+        tracker, tf=False, graph=False, shift_s=shift_s, duration_s=HOUR_S,
+        later_sessions_s=(later_s,),
+    )
+    one = build_logs([robot, tracker], tmp_path / "one.aion", 1)
+    assert one.observation == "tf map->base_link"
+    two = build_logs([robot, tracker], tmp_path / "two.aion", 2)
+    assert len(two.workers) == 2
+    assert two.workers[1]["from"] > cut_after  # one part holds no pose
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    assert two.observation == one.observation
+    assert not [n for n in two.notes if "hold no robot pose" in n]
