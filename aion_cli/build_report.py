@@ -147,7 +147,7 @@ class BuildReport:
     declared_start_ns: int | None = None
     declared_end_ns: int | None = None  # and end, when after the last (a shard's: its own)
     #: a robot trajectory: its windows without a detection message (None without one; a
-    #: parallel build adds its shards' up into one note, ``tf_feed.silent_note``)
+    #: parallel build adds its shards' up into one note, ``build_observation.silent_note``)
     silent_windows: tuple[int, int] | None = None  # (windows, window ns)
     #: beside a robot: the logs it did not observe, read as fixed sensors, and their windows
     #: as ``fixed_windows`` (a parallel build names them in one note, ``shard_reports``)

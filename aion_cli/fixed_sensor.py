@@ -8,9 +8,9 @@ those windows (:func:`fixed_sensor_windows`), counts them over maps learnt in pa
 one-line description the report and the manifest carry (:func:`fixed_sensor_text`,
 :func:`fixed_sensor_share`).
 
-Why apart from :mod:`aion_cli.tf_feed`: the TF feed reads transforms and decides *which*
-observation a build has; what a fixed sensor's observation is, and how it is described and
-added up across builds, merges and time shards, is a job of its own.
+Why apart from :mod:`aion_cli.build_observation`, which decides *which* observation a build
+has (from the TF :mod:`aion_cli.tf_feed` reads): what a fixed sensor's observation is, and how
+it is described and added up across builds, merges and time shards, is a job of its own.
 """
 
 from __future__ import annotations

@@ -51,6 +51,7 @@ from itertools import takewhile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from aion_cli.build_observation import observe
 from aion_cli.build_options import (
     MAP_SUFFIX,
     BuildOptions,
@@ -84,7 +85,6 @@ from aion_cli.tf_feed import (
     check_tf,
     check_times,
     check_unusable,
-    observe,
     read_tf_and_times,
     with_static_tf,
 )
@@ -391,7 +391,7 @@ class _Build(StreamStep):
     def _observation(
         self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
     ) -> None:
-        """Which windows the map observed (:func:`aion_cli.tf_feed.observe`); the first
+        """Which windows the map observed (:func:`aion_cli.build_observation.observe`); the first
         scene graph's agent layer is asked for only without a robot trajectory."""
 
         def graph_agents(between: tuple[int, int] | None) -> bool:

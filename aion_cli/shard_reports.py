@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from aion_cli.build_observation import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 from aion_cli.build_plausibility import FAST_PEOPLE_WARNING, fast_people_warning
 from aion_cli.build_report import BuildReport
 from aion_cli.detection_counts import TopicCounts
@@ -33,7 +34,6 @@ from aion_cli.graph_notes import (
 )
 from aion_cli.observed_spans import OBSERVED_NOTE, observed_note
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
-from aion_cli.tf_feed import NO_TRAJECTORY_NOTE, SILENT_NOTE, silent_note
 
 
 def counts_of(report: BuildReport) -> Any:
@@ -71,7 +71,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         return
     kinds = {p.observation.split(" ")[0] for p in parts}
     # robot shards beside fixed-sensor ones observe as one pass does (a log without poses
-    # is a fixed sensor: tf_feed.unposed_log_windows), except for --observed, which one
+    # is a fixed sensor: fixed_sensor.unposed_log_windows), except for --observed, which one
     # pass ignores beside a robot's trajectory and a fixed sensor's shard applies
     robots = kinds - {"fixed"}
     mixed = (

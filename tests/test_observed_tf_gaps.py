@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from aion_cli.build_observation import silent_note
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, build_map
-from aion_cli.tf_feed import silent_note
 
 S = 1_000_000_000
 WINDOW = 600

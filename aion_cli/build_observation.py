@@ -1,0 +1,146 @@
+"""The observation of a build: which windows (and which places in them) its map observed,
+said in the report: the robot trajectory TF gives (``--map-frame`` -> ``--base-frame``), else
+the scene graphs' agent layer, else a fixed sensor over the windows the logs recorded in
+(:mod:`aion_cli.fixed_sensor`); beside a robot's, the logs it does not observe are fixed
+sensors over their own windows.
+
+Why apart from :mod:`aion_cli.tf_feed`, which reads TF into a buffer before the stream: what
+the buffer's trajectory means for the map (and for a time shard of a parallel build, what one
+pass's whole trajectory decides for the part) is a question of observation, not of reading.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from aion_cli.engine.types import I64, Trajectory
+from aion_cli.engine.windows import window_ns
+from aion_cli.fixed_sensor import fixed_sensor_windows, unposed_log_windows
+from aion_cli.fixed_sensor_text import time_text
+from aion_cli.tf_trajectory import no_trajectory, robot_trajectory, wrong_base_warning
+
+if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.formats.tf import TfBuffer
+    from aion_cli.log_times import TimeCheck
+
+__all__ = ["NO_TRAJECTORY_NOTE", "SILENT_NOTE", "observe", "silent_note"]
+
+
+def observe(
+    mapper: Mapper,
+    tf: TfBuffer | None,
+    frames: tuple[str, str],
+    graph_agents: Callable[[tuple[int, int] | None], bool],
+    logset: Any,
+    times: TimeCheck,
+    report: BuildReport,
+    declared: tuple[tuple[int, int], ...] = (),
+    detection_windows: I64 | None = None,
+    fill: tuple[int | None, int | None] = (None, None),
+    marks: I64 | None = None,
+    whole: TimeCheck | None = None,
+) -> None:
+    """The observation of a build, said in ``report.observation``: the robot trajectory
+    ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
+    graphs' agent layer when the first graph has one (``graph_agents``; its poses are fed
+    per snapshot); else a fixed sensor over the windows it recorded in and the ``declared``
+    spans (:func:`fixed_sensor_windows`; with a robot's observation they are ignored, with
+    a warning: its poses say what it saw; ``fill`` widens the time they may fill:
+    :func:`~aion_cli.observed_spans.declared_windows`; ``marks``: the times of the messages
+    that only mark the spans the logs record, :func:`aion_cli.log_observed.marker_times`).
+    ``detection_windows``: the windows holding a message of a detection topic; the robot's
+    windows without one are counted in a note (:func:`silent_note`). Beside a robot
+    trajectory, logs of other times that hold none of its poses are fixed sensors over their
+    own windows (:func:`unposed_log_windows`), as a build of them alone (a continuation, a
+    parallel shard) observes them. ``whole``: a time shard's ``times`` without its limits;
+    whether the robot observes a group of logs is judged by all its poses, not the part's."""
+    map_frame, base_frame = frames
+    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
+    if tf is not None and traj is None:
+        report.notes.append(no_trajectory(tf, map_frame, base_frame))
+    if traj is not None:
+        delta = window_ns(mapper.state.config.window_s)
+        # every pose's window, also a time shard's outside its part (one pass judges a group
+        # of logs by all of them: fixed_sensor.unposed_log_windows)
+        every = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
+        part = times.inside_limits(traj.t_ns)  # a time shard observes with its own poses
+        if not part.all():
+            traj = Trajectory(np.asarray(traj.t_ns)[part], np.asarray(traj.xyz)[part])
+        mapper.add_trajectory(traj)
+        report.observation = f"tf {map_frame}->{base_frame}"
+        _ignored(declared, report.observation, report.warnings)
+        poses = np.unique(np.asarray(traj.t_ns, dtype=np.int64) // delta)
+
+        def posed(lo: int, hi: int) -> bool:
+            at = int(np.searchsorted(every, lo))
+            return at < every.size and int(every[at]) <= hi
+
+        unposed = unposed_log_windows(
+            mapper, logset, times, posed, report.notes, report, whole
+        )
+        if unposed is not None:
+            report.observation += " + " + unposed
+        if detection_windows is not None:
+            silent = np.setdiff1d(poses, detection_windows, assume_unique=True)
+            report.silent_windows = (int(silent.size), delta)
+            if silent.size:
+                report.notes.append(silent_note(int(silent.size), delta))
+    elif graph_agents(None):
+        report.observation = "scene-graph agent layer"  # fed per snapshot
+        _ignored(declared, report.observation, report.warnings)
+        delta = window_ns(mapper.state.config.window_s)
+        unposed = unposed_log_windows(
+            mapper,
+            logset,
+            times,
+            lambda lo, hi: graph_agents((lo * delta, (hi + 1) * delta)),
+            report.notes,
+            report,
+            whole,
+        )
+        if unposed is not None:
+            report.observation += " + " + unposed
+    else:
+        wrong_base = wrong_base_warning(tf, map_frame, base_frame)
+        if wrong_base is not None:
+            report.warnings.append(wrong_base)
+        report.observation = fixed_sensor_windows(
+            mapper, logset, times, report.notes, report, declared, fill, marks
+        )
+        report.notes.append(
+            f"{NO_TRAJECTORY_NOTE}{map_frame}->{base_frame} or scene-graph agents): the log "
+            "is treated as a fixed sensor that saw everything in the windows in which it "
+            "recorded any message, within the time of the topics aion uses"
+        )
+
+
+NO_TRAJECTORY_NOTE = "no robot trajectory (TF "
+"""The start of the note of a log without a robot trajectory (its frames follow)."""
+
+
+SILENT_NOTE = "robot trajectory: "
+
+
+def silent_note(n: int, delta: int) -> str:
+    """The note on ``n`` windows the robot's poses observe in which no detection topic
+    recorded a message (a parallel build adds its shards' up into one)."""
+    return (
+        f"{SILENT_NOTE}{n:,} window(s) ({time_text(n * delta)}) with robot poses hold "
+        "no message of the detection topic(s): they count as observed and empty (nobody "
+        "there); a tracker that publishes only when it sees someone leaves them so, but one "
+        "that was down then (crashed, not started) did not observe them: leave that time "
+        "out of the logs"
+    )
+
+
+def _ignored(declared: tuple[tuple[int, int], ...], observation: str, warnings: list[str]) -> None:
+    if declared:
+        warnings.append(
+            f"--observed ignored: the logs have a robot trajectory ({observation}), whose "
+            "poses say which places the sensor saw in each window"
+        )
