@@ -44,6 +44,7 @@ def observe(
     fill: tuple[int | None, int | None] = (None, None),
     marks: I64 | None = None,
     whole: TimeCheck | None = None,
+    opens_map: bool = False,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -58,7 +59,9 @@ def observe(
     trajectory, logs of other times that hold none of its poses are fixed sensors over their
     own windows (:func:`unposed_log_windows`), as a build of them alone (a continuation, a
     parallel shard) observes them. ``whole``: a time shard's ``times`` without its limits;
-    whether the robot observes a group of logs is judged by all its poses, not the part's."""
+    whether the robot observes a group of logs is judged by all its poses, not the part's.
+    ``opens_map``: the time shard's logs start a new map (no map or logs before them), which
+    starts where one pass's starts (:func:`_one_pass_start`)."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -80,11 +83,14 @@ def observe(
             at = int(np.searchsorted(every, lo))
             return at < every.size and int(every[at]) <= hi
 
-        unposed = unposed_log_windows(
+        unposed, unposed_from = unposed_log_windows(
             mapper, logset, times, posed, report.notes, report, whole
         )
         if unposed is not None:
             report.observation += " + " + unposed
+        if opens_map and times.limits is not None:
+            first = int(every[0]) if unposed_from is None else min(int(every[0]), unposed_from)
+            _one_pass_start(mapper, first, times.limits[0], delta)
         if detection_windows is not None:
             silent = np.setdiff1d(poses, detection_windows, assume_unique=True)
             report.silent_windows = (int(silent.size), delta)
@@ -94,7 +100,7 @@ def observe(
         report.observation = "scene-graph agent layer"  # fed per snapshot
         _ignored(declared, report.observation, report.warnings)
         delta = window_ns(mapper.state.config.window_s)
-        unposed = unposed_log_windows(
+        unposed, _ = unposed_log_windows(  # (no pose is added before the stream)
             mapper,
             logset,
             times,
@@ -117,6 +123,18 @@ def observe(
             "is treated as a fixed sensor that saw everything in the windows in which it "
             "recorded any message, within the time of the topics aion uses"
         )
+
+
+def _one_pass_start(mapper: Mapper, first: int, lo: int, delta: int) -> None:
+    """A time shard ``[lo, ...)`` of a new map starts it where one pass does: one pass adds
+    every robot pose (and the windows of the logs beside the robot's that it reads as fixed
+    sensors) before the stream, so its map starts at the first of them (window ``first``)
+    and drops the detections before it (``before_window``: a tracker recording before the
+    robot's localisation started). A part before that window holds none of those poses and
+    would start at its own first detection instead. A part after it needs nothing: one
+    pass's map started before the part."""
+    if first * delta >= lo:
+        mapper.start_at(first * delta)
 
 
 NO_TRAJECTORY_NOTE = "no robot trajectory (TF "

@@ -270,10 +270,13 @@ class ShardStart:
     detection topic (``yaw_seen``) and the scene graphs' pinned version and layer
     (``graph_pins``, :attr:`aion_cli.graph_feed.GraphFeed.pins`); and the static transforms
     of all the build's logs (``static_tf``, :func:`aion_cli.tf_feed.read_static_tf`), which
-    one pass would apply to every log whichever recorded them."""
+    one pass would apply to every log whichever recorded them; ``opens_map``: no map and no
+    logs come before the shard's logs, so a time shard of them starts the map where one pass
+    starts it (:func:`aion_cli.build_observation.observe`)."""
 
     part: tuple[int, int] | None = None
     first_part: bool = True
     yaw_seen: Mapping[str, float] | None = None
     graph_pins: tuple[str | None, str | None] = (None, None)
     static_tf: StaticTf = ()
+    opens_map: bool = False

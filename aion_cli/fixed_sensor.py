@@ -149,7 +149,7 @@ def unposed_log_windows(
     notes: list[str],
     report: Any = None,
     whole: TimeCheck | None = None,
-) -> str | None:
+) -> tuple[str | None, int | None]:
     """Beside a robot's observation, the logs it does not observe: the logs, grouped as a
     parallel build groups them into shards (:func:`aion_cli.parallel_build.plan_shards`: logs
     that overlap or touch in time stay together), of which ``robot(first, last)`` (the
@@ -159,8 +159,9 @@ def unposed_log_windows(
     alone observes them (continuing a robot's map with them, a parallel shard of them): a
     log without any robot trajectory is a fixed sensor, also when another log of the build
     has one. Sets the Mapper's windows for them and returns the report's description of that
-    observation, or None when the robot observes every group; a note names those logs (a
-    robot log whose localisation was not recorded is read so too).
+    observation, or None when the robot observes every group, and the first window of those
+    groups over the whole logs (None: none); a note names those logs (a robot log whose
+    localisation was not recorded is read so too).
 
     ``whole``: a time shard's check without its limits (``times`` is limited to the part,
     :meth:`~aion_cli.log_times.TimeCheck.limited`). A group is judged by all its windows,
@@ -173,7 +174,7 @@ def unposed_log_windows(
 
     spans = logset.recording_times()
     if len(spans) < 2:
-        return None
+        return None, None
     delta = window_ns(mapper.state.config.window_s)
     keys = dict.fromkeys(logset.recordings)  # in the order recorded_windows_by_recording joins
     held: dict[int, I64] = {}
@@ -188,25 +189,27 @@ def unposed_log_windows(
     read = windows_of(times.span_times, delta)
     parts = []
     fixed: list[str] = []
+    first: int | None = None  # the first window of those groups, over the whole logs
     for group in plan_shards([(key, lo, hi) for key, (lo, hi) in spans.items()], delta):
-        recorded = np.unique(np.concatenate([held[key] for key in group]))
-        if recorded.size == 0:
-            continue
         seen = np.concatenate([judged[key] for key in group])
-        if robot(int(seen.min()), int(seen.max())):
+        if seen.size == 0 or robot(int(seen.min()), int(seen.max())):
             continue  # the robot's poses say what these logs observed
+        first = int(seen.min()) if first is None else min(first, int(seen.min()))
+        recorded = np.unique(np.concatenate([held[key] for key in group]))
+        if recorded.size == 0:  # (a time shard's part holds none of its windows)
+            continue
         lo, hi = int(recorded[0]), int(recorded[-1])
         parts.append(np.union1d(recorded, read[(read >= lo) & (read <= hi)]))
         fixed.extend(names[key] for key in group)
     if not parts:
-        return None
+        return None, first
     notes.append(unposed_note(fixed))
     windows: I64 = np.unique(np.concatenate(parts))
     mapper.set_fixed_windows(windows, recording_bounds(logset, times, windows, delta, read))
     summary = (len(windows), int(windows[0]), int(windows[-1]), delta)
     if report is not None:  # a parallel build adds its shards' up (shard_reports)
         report.unposed = (fixed, summary)
-    return fixed_sensor_text(*summary)
+    return fixed_sensor_text(*summary), first
 
 
 UNPOSED_NOTE = " log(s) of other times than the robot's hold no robot pose ("

@@ -175,6 +175,7 @@ class ParallelBuild:
                 i, group, previous is not None or i > 0,
                 opts if fill is None else dataclasses.replace(opts, observed_fill=fill),
                 self.config, part, first, seed, static_tf,
+                opens_map=previous is None and group == shards[0][0],
             )
             for i, ((group, part, first), seed, fill) in enumerate(
                 zip(shards, seeds, fills, strict=True)

@@ -413,6 +413,7 @@ class _Build(StreamStep):
             observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
             self._marks,
             self._whole_times,
+            self.at.opens_map and self.start is None,  # (learnt onto a map: it has started)
         )
 
     def _fixed_graph(

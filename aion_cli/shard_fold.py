@@ -54,6 +54,8 @@ class ShardTask:
     yaw_seen: dict[str, float] = field(default_factory=dict)
     # the static transforms of all the build's logs (aion_cli.tf_feed.read_static_tf)
     static_tf: StaticTf = ()
+    # no map and no logs before the shard's logs (ShardStart.opens_map)
+    opens_map: bool = False
 
 
 @dataclass
@@ -124,7 +126,8 @@ def _shard_build(
         task.opts, logs=task.logs, continue_from=None, workers=1, scheduler=None
     )
     at = ShardStart(
-        task.part, task.first_part, yaw_seen=task.yaw_seen, static_tf=task.static_tf
+        task.part, task.first_part, yaw_seen=task.yaw_seen, static_tf=task.static_tf,
+        opens_map=task.opens_map,
     )
     if before is not None:
         at = dataclasses.replace(at, yaw_seen=before.yaws, graph_pins=before.pins)

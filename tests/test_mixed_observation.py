@@ -171,6 +171,8 @@ def test_a_robot_shard_with_its_own_fixed_sensor_logs_adds_their_windows_once() 
     [
         # people from 09:00:03 to 09:59:53 and from 11:00:03: the cut after the last pose
         (HOUR_S - 2, 2 * HOUR_S, "2026-11-23 10:00"),
+        # people from 06:00:05 to 06:59:55 and from 09:00:03: the cut before the first pose
+        (-2 * HOUR_S, 3 * HOUR_S - 2, "2026-11-23 07:00"),
     ],
 )
 def test_a_time_shard_without_the_robots_poses_observes_as_one_pass(
@@ -180,7 +182,10 @@ def test_a_time_shard_without_the_robots_poses_observes_as_one_pass(
     observed) records another hour, apart from the robot's, so a parallel build cuts the group
     between the two into time shards, one of them without a robot pose. One pass judges the
     group by all its poses (its windows without a pose are unobserved); the part without a
-    pose judged its own windows only and read the group as a fixed sensor over them."""
+    pose judged its own windows only and read the group as a fixed sensor over them. Before
+    the first pose, one pass's map starts at that pose (every pose is added before the
+    stream) and drops the hour's detections as before its first window: the part before it
+    kept them."""
     robot, tracker = tmp_path / "r.mcap", tmp_path / "t.mcap"
     write_office_log(robot, graph=False, duration_s=HOUR_S)  # poses 08:00-08:59:55
     write_office_log(
@@ -195,3 +200,52 @@ def test_a_time_shard_without_the_robots_poses_observes_as_one_pass(
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
     assert two.observation == one.observation
     assert not [n for n in two.notes if "hold no robot pose" in n]
+
+
+def _late_localisation(path: Path) -> None:
+    """One log: people every 10 s from 06:00:05 to 06:59:55 with no robot pose, then from
+    08:00:05 to 08:59:55 with the robot's (``/tf`` map -> base_link every 5 s from 08:00)."""
+    from aion_cli.formats.writers import LogWriter
+    from tests.cli.logdata import ROBOT_XYZ, T0, S
+
+    def stamp(t: int) -> dict[str, int]:
+        return {"sec": t // S, "nanosec": t % S}
+
+    person = {
+        "track_id": 1, "is_matched": True,
+        "pose": {"pose": {"position": {"x": 2.1, "y": 0.1, "z": 0.0}, "orientation": {"w": 1.0}}},
+        "twist": {"twist": {"linear": {"x": 1.0, "y": 0.0, "z": 0.0}}},
+    }
+    x, y, z = ROBOT_XYZ
+    with LogWriter(path) as writer:
+        for s in [*range(-2 * HOUR_S, -HOUR_S, 5), *range(0, HOUR_S, 5)]:
+            t = T0 + s * S
+            if s >= 0:
+                writer.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [{
+                    "header": {"stamp": stamp(t), "frame_id": "map"},
+                    "child_frame_id": "base_link",
+                    "transform": {"translation": {"x": x, "y": y, "z": z},
+                                  "rotation": {"w": 1.0}},
+                }]}, t)
+            if s % 10 == 5:
+                writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons", {
+                    "header": {"stamp": stamp(t), "frame_id": "map"}, "tracks": [person],
+                }, t)
+
+
+def test_a_time_shard_before_the_robots_localisation_starts_drops_as_one_pass(
+    tmp_path: Path,
+) -> None:
+    """A robot's log whose tracker ran an hour before its localisation, cut into two time
+    shards between the two: one pass adds every pose before the stream, so its map starts at
+    the first pose and the hour before it is dropped (360 detections ``before_window``); the
+    first part, holding no pose, started at its own first detection and kept them."""
+    log = tmp_path / "late.mcap"
+    _late_localisation(log)
+    one = build_logs([log], tmp_path / "one.aion", 1)
+    assert one.observation == "tf map->base_link"
+    assert one.to_dict()["detections"]["dropped"] == {"before_window": 360}
+    two = build_logs([log], tmp_path / "two.aion", 2)
+    assert len(two.workers) == 2
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    assert two.to_dict()["detections"] == one.to_dict()["detections"]

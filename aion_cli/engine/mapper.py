@@ -192,6 +192,14 @@ class Mapper:
         if w.size:
             self._start_at(int(w.min()) * self._delta)
 
+    def start_at(self, t_ns: int) -> None:
+        """The map starts at ``t_ns`` unless a source or a record started it earlier, as an
+        observation source starting there starts it (:meth:`_start_at`): a time shard of a
+        parallel build starts where one pass, which adds every robot pose before the
+        stream, starts, also when the part holds none of those poses."""
+        check_time(int(t_ns), "a map start")
+        self._start_at(int(t_ns))
+
     def _fed_at(self, t_ns: int) -> None:
         """Log time ``t_ns`` was fed (a detection, graph, pose or :meth:`advance`): the
         state's ``first_time_ns`` is the earliest, the start of the span ``Map.from_state``
