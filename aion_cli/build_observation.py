@@ -45,6 +45,7 @@ def observe(
     marks: I64 | None = None,
     whole: TimeCheck | None = None,
     opens_map: bool = False,
+    begun: bool = False,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -60,8 +61,8 @@ def observe(
     own windows (:func:`unposed_log_windows`), as a build of them alone (a continuation, a
     parallel shard) observes them. ``whole``: a time shard's ``times`` without its limits;
     whether the robot observes a group of logs is judged by all its poses, not the part's.
-    ``opens_map``: the time shard's logs start a new map (no map or logs before them), which
-    starts where one pass's starts (:func:`_one_pass_start`)."""
+    ``opens_map``: the shard's logs start a new map (no map or logs before them); ``begun``:
+    a shard after others (or onto a map): where its map starts (:func:`_one_pass_start`)."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
     if tf is not None and traj is None:
@@ -88,9 +89,8 @@ def observe(
         )
         if unposed is not None:
             report.observation += " + " + unposed
-        if opens_map and times.limits is not None:
-            first = int(every[0]) if unposed_from is None else min(int(every[0]), unposed_from)
-            _one_pass_start(mapper, first, times.limits[0], delta)
+        first = int(every[0]) if unposed_from is None else min(int(every[0]), unposed_from)
+        _one_pass_start(mapper, times, first * delta, opens_map, begun)
         if detection_windows is not None:
             silent = np.setdiff1d(poses, detection_windows, assume_unique=True)
             report.silent_windows = (int(silent.size), delta)
@@ -125,16 +125,28 @@ def observe(
         )
 
 
-def _one_pass_start(mapper: Mapper, first: int, lo: int, delta: int) -> None:
-    """A time shard ``[lo, ...)`` of a new map starts it where one pass does: one pass adds
-    every robot pose (and the windows of the logs beside the robot's that it reads as fixed
-    sensors) before the stream, so its map starts at the first of them (window ``first``)
-    and drops the detections before it (``before_window``: a tracker recording before the
-    robot's localisation started). A part before that window holds none of those poses and
-    would start at its own first detection instead. A part after it needs nothing: one
-    pass's map started before the part."""
-    if first * delta >= lo:
-        mapper.start_at(first * delta)
+def _one_pass_start(
+    mapper: Mapper, times: TimeCheck, first_ns: int, opens_map: bool, begun: bool
+) -> None:
+    """Where a shard's map starts, as one pass's does, after its robot poses were added.
+
+    One pass adds every robot pose (and the windows of the logs beside the robot's that it
+    reads as fixed sensors) before the stream, so a new map starts at the first of them
+    (``first_ns``) and drops the detections before it as ``before_window`` (a tracker
+    recording before the localisation started). A time shard of a new map's first logs
+    (``opens_map``) starting at or before that time starts there too: holding none of those
+    poses it would start at its own first detection and keep them.
+
+    A shard whose map one pass had begun before (``begun``: a group of logs after others, or
+    onto a map; or such a time shard starting after ``first_ns``) starts at its first
+    message when that comes before its first pose: one pass streams the detections before
+    that pose into its open map, where the shard, its own poses added first, would start at
+    the first of them and drop those detections."""
+    part = times.limits
+    if opens_map and part is not None and first_ns >= part[0]:
+        mapper.start_at(first_ns)
+    elif (begun or (opens_map and part is not None)) and times.start_ns is not None:
+        mapper.start_at(times.start_ns)
 
 
 NO_TRAJECTORY_NOTE = "no robot trajectory (TF "

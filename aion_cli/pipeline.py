@@ -414,6 +414,7 @@ class _Build(StreamStep):
             self._marks,
             self._whole_times,
             self.at.opens_map and self.start is None,  # (learnt onto a map: it has started)
+            self.shard and not self.at.opens_map and self.start is None,
         )
 
     def _fixed_graph(

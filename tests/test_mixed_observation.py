@@ -202,9 +202,16 @@ def test_a_time_shard_without_the_robots_poses_observes_as_one_pass(
     assert not [n for n in two.notes if "hold no robot pose" in n]
 
 
-def _late_localisation(path: Path) -> None:
-    """One log: people every 10 s from 06:00:05 to 06:59:55 with no robot pose, then from
-    08:00:05 to 08:59:55 with the robot's (``/tf`` map -> base_link every 5 s from 08:00)."""
+LATE_START = ((-2 * HOUR_S, -HOUR_S, False), (0, HOUR_S, True))
+
+
+def _late_localisation(
+    path: Path, shift_s: int = 0, segments: tuple[tuple[int, int, bool], ...] = LATE_START
+) -> None:
+    """One log of ``segments`` ``(start, stop, posed)``, seconds after Monday 08:00 plus
+    ``shift_s``: a person every 10 s (at 5 s past), and where ``posed`` the robot's ``/tf``
+    map -> base_link every 5 s. By default people from 06:00:05 to 06:59:55 with no robot
+    pose, then from 08:00:05 to 08:59:55 with the robot's (its localisation started late)."""
     from aion_cli.formats.writers import LogWriter
     from tests.cli.logdata import ROBOT_XYZ, T0, S
 
@@ -218,19 +225,20 @@ def _late_localisation(path: Path) -> None:
     }
     x, y, z = ROBOT_XYZ
     with LogWriter(path) as writer:
-        for s in [*range(-2 * HOUR_S, -HOUR_S, 5), *range(0, HOUR_S, 5)]:
-            t = T0 + s * S
-            if s >= 0:
-                writer.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [{
-                    "header": {"stamp": stamp(t), "frame_id": "map"},
-                    "child_frame_id": "base_link",
-                    "transform": {"translation": {"x": x, "y": y, "z": z},
-                                  "rotation": {"w": 1.0}},
-                }]}, t)
-            if s % 10 == 5:
-                writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons", {
-                    "header": {"stamp": stamp(t), "frame_id": "map"}, "tracks": [person],
-                }, t)
+        for start, stop, posed in segments:
+            for s in range(start, stop, 5):
+                t = T0 + (shift_s + s) * S
+                if posed:
+                    writer.write("/tf", "tf2_msgs/msg/TFMessage", {"transforms": [{
+                        "header": {"stamp": stamp(t), "frame_id": "map"},
+                        "child_frame_id": "base_link",
+                        "transform": {"translation": {"x": x, "y": y, "z": z},
+                                      "rotation": {"w": 1.0}},
+                    }]}, t)
+                if s % 10 == 5:
+                    writer.write("/tracks", "spencer_tracking_msgs/msg/TrackedPersons", {
+                        "header": {"stamp": stamp(t), "frame_id": "map"}, "tracks": [person],
+                    }, t)
 
 
 def test_a_time_shard_before_the_robots_localisation_starts_drops_as_one_pass(
@@ -247,5 +255,41 @@ def test_a_time_shard_before_the_robots_localisation_starts_drops_as_one_pass(
     assert one.to_dict()["detections"]["dropped"] == {"before_window": 360}
     two = build_logs([log], tmp_path / "two.aion", 2)
     assert len(two.workers) == 2
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    assert two.to_dict()["detections"] == one.to_dict()["detections"]
+
+
+def test_a_later_shard_whose_localisation_starts_late_keeps_what_one_pass_keeps(
+    tmp_path: Path,
+) -> None:
+    """The same log two days after a robot's hour, a shard of its own: one pass's map began
+    with the first log, so the hour before the second log's first pose is streamed into it
+    and kept; the shard started its map at that first pose (every pose is added before the
+    stream) and dropped the 360 detections before it as ``before_window``."""
+    first, late = tmp_path / "a.mcap", tmp_path / "late.mcap"
+    write_office_log(first, graph=False, duration_s=HOUR_S)
+    _late_localisation(late, shift_s=2 * DAY_S)
+    one = build_logs([first, late], tmp_path / "one.aion", 1)
+    assert one.to_dict()["detections"]["dropped"] == {}
+    two = build_logs([first, late], tmp_path / "two.aion", 2)
+    assert len(two.workers) == 2
+    assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
+    assert two.to_dict()["detections"] == one.to_dict()["detections"]
+
+
+def test_a_time_shard_whose_poses_resume_late_keeps_what_one_pass_keeps(tmp_path: Path) -> None:
+    """One robot log: an hour with poses, a silent hour, then an hour of people without a
+    pose and an hour with them again; cut in the silence. One pass's map began in the first
+    hour and keeps the people of the hour before the poses resume; the second part, its own
+    first pose added before its stream, started its map there and dropped 360 of them."""
+    log = tmp_path / "gap.mcap"
+    _late_localisation(log, segments=(
+        (0, HOUR_S, True), (2 * HOUR_S, 3 * HOUR_S, False), (3 * HOUR_S, 4 * HOUR_S, True),
+    ))
+    one = build_logs([log], tmp_path / "one.aion", 1)
+    assert one.to_dict()["detections"]["dropped"] == {}
+    two = build_logs([log], tmp_path / "two.aion", 2)
+    assert len(two.workers) == 2
+    assert two.workers[1]["from"] < "2026-11-23 10:05"  # the part starts before 11:00's pose
     assert same_maps(tmp_path / "one.aion", tmp_path / "two.aion") == []
     assert two.to_dict()["detections"] == one.to_dict()["detections"]
