@@ -17,6 +17,7 @@ import numpy as np
 
 from aion_cli.engine.entries import ADDITIVE, CELL, HEADING_SUMS, NODE
 from aion_cli.engine.grouping import contained
+from aion_cli.engine.temporal.stored_layout import all_finite
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.errors import MapCorruptError, MapFileError, MapVersionError
 
@@ -142,8 +143,8 @@ def _first_bad(name: str, values: np.ndarray, nonnegative: bool) -> str | None:
     """A problem with ``values`` (not finite, or negative where counts must not be), naming
     the member, the value and its row; None when fine."""
     v = np.asarray(values)
-    finite = np.isfinite(v)
-    if not finite.all():
+    if not all_finite(v):
+        finite = np.isfinite(v)
         row = np.unravel_index(int(np.flatnonzero(~finite.ravel())[0]), v.shape)[0]
         return f"{name} holds {v.ravel()[~finite.ravel()][0]} (row {row})"
     if nonnegative and v.size and v.real.min() < 0:

@@ -33,7 +33,7 @@ from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalSta
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.temporal.scoring import score_day, squared_gains
-from aion_cli.engine.temporal.stored_layout import narrowed, stored_positions
+from aion_cli.engine.temporal.stored_layout import all_finite, narrowed, stored_positions
 from aion_cli.engine.types import I64
 from aion_cli.errors import MapCorruptError
 
@@ -134,7 +134,7 @@ class ProvisionalScores:
             shape = (rows.size,) if name in _TALLIES else (rows.size, width)
             if problem is None and values.shape != shape:
                 problem = f"{name} has shape {values.shape}, expected {shape}"
-            elif problem is None and not np.isfinite(values).all():
+            elif problem is None and not all_finite(values):
                 problem = f"{name} has values that are not finite"
             elif problem is None and name in _TALLIES and (values < 0).any():
                 problem = f"{name} has negative values"

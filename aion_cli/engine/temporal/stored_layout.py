@@ -162,11 +162,18 @@ def lists_all(index: I64, size: int) -> bool:
 
 
 def first_nonfinite(named: dict[str, Any]) -> list[str]:
-    """Names of the arrays holding a NaN or an infinity. A finite sum proves every value
-    finite (NaN and infinities propagate) without a boolean temporary of the array's size;
-    only an infinite sum (a NaN, an infinity, or an overflow) is checked value by value."""
-    return [
-        name
-        for name, v in named.items()
-        if v.size and not np.isfinite(v.sum()) and not np.isfinite(v).all()
-    ]
+    """Names of the arrays holding a NaN or an infinity (:func:`all_finite`)."""
+    return [name for name, v in named.items() if not all_finite(v)]
+
+
+def all_finite(values: np.ndarray) -> bool:
+    """Whether every value is finite. A finite sum proves it (NaN and infinities propagate)
+    without a boolean temporary of the array's size (on a 10^5-entry map's checks, ~37 MB
+    of fresh pages a query used to fault in); only an infinite sum (a NaN, an infinity, or
+    an overflow) is checked value by value. Integers and booleans are always finite."""
+    v = np.asarray(values)
+    if v.size == 0 or v.dtype.kind in "biu":
+        return True
+    with np.errstate(over="ignore", invalid="ignore"):  # inf - inf, an overflow: no warning
+        total = v.sum()
+    return bool(np.isfinite(total) or np.isfinite(v).all())
