@@ -433,7 +433,7 @@ class MapState:
         # the components' readers only look members up by name: any mapping will do
         arrays = cast(dict[str, np.ndarray], arrays)
         check_member_shapes(arrays)  # what the components' readers index without checking
-        entries = EntryStore.from_arrays(arrays, config.bins)
+        entries = EntryStore.from_arrays(arrays, config.bins, adopt=not writable and not copy)
         params = TemporalParams.from_config(config)
         components = None
         if forecast_only and not writable and meta.get("deferred") is None:
