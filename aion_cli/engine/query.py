@@ -141,8 +141,11 @@ def _entry_table(
     ent = state.entries
     # the pooling groups the forecast filled the entries' empty bins from (the predictor's own)
     fc = predictor.forecaster
+    # gathered once for both uses (pooled_heading_sums reads them, never writes them): each
+    # is a fresh E x B copy, 6.4 MB on a 10^5-entry map
+    heading_cos, heading_sin = ent.heading_cos[rows], ent.heading_sin[rows]
     bin_cos, bin_sin = descriptors.pooled_heading_sums(
-        ent.heading_cos[rows], ent.heading_sin[rows], fc.groups, len(fc.pool.histogram)
+        heading_cos, heading_sin, fc.groups, len(fc.pool.histogram)
     )
     table = _table(
         state,
@@ -154,8 +157,8 @@ def _entry_table(
         pred.variance,
         pred.flow_family,
         pred.direction_family,
-        ent.heading_cos[rows],
-        ent.heading_sin[rows],
+        heading_cos,
+        heading_sin,
     )
     extra = len(table) - len(rows)  # the graph's places without an entry: no flow
     return replace(
