@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, EntryStore
 from aion_cli.engine.state import MapState
+from aion_cli.engine.state_checks import first_row_over
 from aion_cli.engine.temporal.stored_layout import all_finite, first_nonfinite
 from aion_cli.formats.mapfile import open_map, write_map
 
@@ -139,3 +140,26 @@ def test_integers_are_finite() -> None:
     assert all_finite(np.array([2**63 - 1, 2**63 - 1], np.int64))  # its sum wraps around
     assert all_finite(np.zeros((0, 3)))
     assert all_finite(np.array([255, 255], np.uint8))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(min_value=0, max_value=9000),
+    st.lists(st.integers(min_value=0, max_value=8999), max_size=4),
+    st.sampled_from([(), (3,)]),
+)
+def test_first_row_over_is_the_first_row_of_the_whole_comparison(
+    n: int, bad: list[int], tail: tuple[int, ...]
+) -> None:
+    """Blocks of 4,096 rows: the first row found is the one the whole arrays' comparison
+    finds, in any block (counts a little above their whole within the slack are not over)."""
+    rng = np.random.default_rng(n)
+    whole = rng.integers(0, 5, (n, *tail)).astype(np.float64)
+    part = whole.copy()
+    part += 1e-10  # within the slack
+    for r in (r for r in bad if r < n):
+        part[r] = whole[r] + 1.0
+    over = part > whole + 1e-9
+    rows = np.flatnonzero(over.reshape(n, -1).any(axis=1)) if n else np.zeros(0, np.int64)
+    expected = int(rows[0]) if rows.size else None
+    assert first_row_over(part, whole, 1e-9) == expected
