@@ -17,24 +17,49 @@ from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns
 from aion_cli.errors import AionError, AionWarning, InputError
 
 if TYPE_CHECKING:
+    from aion_cli.build_report import BuildReport
+    from aion_cli.evaluation.holdout import HoldoutResult
+    from aion_cli.manifest import Manifest
+    from aion_cli.merge_report import MergeReport
     from aion_cli.prediction_series import SeriesTable
+    from aion_cli.query_only import CompactReport
+
+_LAZY = {
+    "BuildReport": "aion_cli.build_report",
+    "CompactReport": "aion_cli.query_only",
+    "HoldoutResult": "aion_cli.evaluation.holdout",
+    "Manifest": "aion_cli.manifest",
+    "MergeReport": "aion_cli.merge_report",
+    "SeriesTable": "aion_cli.prediction_series",
+}
+"""The API's other result types, each by the name its ``repr`` gives it (``<aion.BuildReport
+...>``), to annotate with (``report: aion.BuildReport = aion.build(...).report``) and test
+with ``isinstance``: ``Map.predict_series``' :class:`SeriesTable`, ``Map.report``'s
+:class:`BuildReport`, :class:`MergeReport` and :class:`CompactReport`, ``Map.holdout``'s
+:class:`HoldoutResult` and ``Map.manifest``'s :class:`Manifest`."""
 
 
 def __getattr__(name: str) -> Any:
-    """``aion.SeriesTable`` (what ``Map.predict_series`` returns), imported when first asked
-    for: its module brings numpy, which ``import aion_cli`` does not need."""
-    if name == "SeriesTable":
-        from aion_cli.prediction_series import SeriesTable
+    """The names of :data:`_LAZY`, imported when first asked for: their modules bring numpy
+    (and more), which ``import aion_cli`` does not need."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
 
-        return SeriesTable
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(module), name)
 
 
 __all__ = [
     "AionError",
     "AionWarning",
+    "BuildReport",
+    "CompactReport",
+    "HoldoutResult",
     "InputError",
+    "Manifest",
     "Map",
+    "MergeReport",
     "Plan",
     "SeriesTable",
     "Table",

@@ -24,7 +24,9 @@ the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
 ``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports them, and
-``aion_cli`` re-exports them with ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``.
+``aion_cli`` re-exports them with ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``
+and the types of the other results, each by the name its repr gives (``BuildReport``,
+``MergeReport``, ``CompactReport``, ``HoldoutResult``, ``Manifest``).
 """
 
 from __future__ import annotations

@@ -64,7 +64,8 @@ from aion_cli.merge_config import adopt_config, check_compatible
 from aion_cli.merge_frames import common_frame, frame_warning
 from aion_cli.merge_lineage import check_lineage, choose_lineage
 from aion_cli.merge_names import naming_map, shared_names
-from aion_cli.merge_report import MergedInput, MergeReport
+from aion_cli.merge_report import MergedInput
+from aion_cli.merge_report import MergeReport as MergeReport  # docs/API.md names it here
 from aion_cli.merge_twins import check_same_recording
 
 if TYPE_CHECKING:
