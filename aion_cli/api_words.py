@@ -116,6 +116,7 @@ def api_call(command: str) -> str:
     call = CALLS.get(words[1]) if len(words) > 1 else None
     if call is None:
         return command
+    words = _optional_paths(words)
     paths: list[str] = []
     output: str | None = None
     keywords: list[str] = []
@@ -163,6 +164,28 @@ def api_call(command: str) -> str:
     first = said[0] if len(said) == 1 and words[1] == "build" else f"[{', '.join(said)}]"
     args = [first if said else "...", *([] if output is None else [_argument(output)])]
     return f"{call}({', '.join([*args, *keywords])})" + (" " + rest if rest else "")
+
+
+def _optional_paths(words: list[str]) -> list[str]:
+    """``words`` with a usage line's optional paths (``PART.aion [PART2.aion ...] -o
+    MAP.aion``) as more paths (``PART.aion PART2.aion ...``): the call's list takes one or
+    more, and ``"[PART2.aion"``, ``"...]"`` quoted as files were neither Python nor a name.
+    A bracketed group holding anything but paths is left as it is (then not said as a call)."""
+    out: list[str] = []
+    group: list[str] | None = None
+    for word in words:
+        if group is None and word.startswith("["):
+            group = []
+        if group is None:
+            out.append(word)
+            continue
+        group.append(word)
+        if word.endswith("]"):
+            inside = " ".join(group)[1:-1].split(" ")
+            paths = all(_PATH_WORD.fullmatch(w) and w not in _NOT_VALUES for w in inside)
+            out += inside if paths else group
+            group = None
+    return out + (group or [])
 
 
 def _closed(value: str) -> bool:

@@ -159,6 +159,10 @@ def test_a_command_line_the_api_has_a_call_for_is_said_as_the_call() -> None:
         ("(aion build a.mcap b.mcap -o NEW.aion)",
          '(aion.build(["a.mcap", "b.mcap"], "NEW.aion"))'),
         ("(aion merge PART.aion -o MAP.aion)", '(aion.merge(["PART.aion"], "MAP.aion"))'),
+        # a usage line's optional paths: more paths of the call's list
+        ("aion merge PART.aion [PART2.aion ...] -o MAP.aion scores its days into a map",
+         'aion.merge(["PART.aion", "PART2.aion", ...], "MAP.aion") scores its days into a map'),
+        ("(aion build LOG [LOG2] -o MAP.aion)", '(aion.build([LOG, LOG2], "MAP.aion"))'),
         ("continue it (aion build --map) with",
          "continue it (aion.build(..., continue_from=MAP)) with"),
         ("(aion info MAP shows it; aion build --config FILE)",
@@ -314,3 +318,21 @@ def test_the_sim_time_warning_names_the_predict_call_with_its_quoted_time() -> N
 def test_a_command_with_an_option_the_api_cannot_say_stays_whole() -> None:
     assert api_text("(aion build LOG -o)") == "(aion build LOG -o)"
     assert api_text("(aion build LOG --part -x y)") == "(aion build LOG --part -x y)"
+
+
+def test_a_part_map_s_query_hint_is_the_merge_call_with_every_part(
+    office: Office, tmp_path: Path
+) -> None:
+    """A part map's query is refused with the hint ``aion merge PART.aion [PART2.aion ...] -o
+    MAP.aion``; through the API it read ``aion.merge(["PART.aion", "[PART2.aion", "...]"],
+    "MAP.aion")``, the usage line's brackets quoted into file names. The optional parts are
+    more items of the call's list now; the command line keeps its usage line."""
+    part = aion.build(office.log, tmp_path / "p.aion", part=True)
+    with pytest.raises(AionError) as caught:
+        part.predict(historical=True)
+    assert caught.value.hint == (
+        'aion.merge(["PART.aion", "PART2.aion", ...], "MAP.aion") scores its days into a map'
+    )
+    result = run("predict", part.path, "--historical")
+    assert result.exit_code == 2
+    assert "aion merge PART.aion [PART2.aion ...] -o MAP.aion scores its days" in result.stderr
