@@ -130,7 +130,11 @@ def count(value: object, what: str, minimum: int = 1) -> int | None:
 
 def real(value: object, what: str) -> float:
     """A finite real number."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Real)
+        or type(value).__name__ == "timedelta64"  # numpy's: an Integral to numbers, no float
+    ):
         raise InputError(
             f"{what} must be a number, got {value!r}", hint="an int or a float, not a string"
         )
@@ -297,9 +301,9 @@ def selection(
     return wanted, where, count(top, "top")
 
 
-def step(value: object) -> str | float:
-    """A series step: text (``"10m"``), seconds or a ``timedelta`` or ``numpy.timedelta64``
-    (its seconds)."""
+def step(value: object, what: str = "step") -> str | float:
+    """A series step (or another duration, ``what``: ``graph_period``): text (``"10m"``),
+    seconds or a ``timedelta`` or ``numpy.timedelta64`` (its seconds)."""
     if isinstance(value, str):
         return value
     if isinstance(value, timedelta):
@@ -308,18 +312,21 @@ def step(value: object) -> str | float:
         import numpy as np
 
         try:
-            return real(float(value / np.timedelta64(1, "s")), "step")  # type: ignore[operator]
+            return real(float(value / np.timedelta64(1, "s")), what)  # type: ignore[operator]
         except (TypeError, ValueError) as exc:  # months and years have no length in seconds
             raise InputError(
-                f"step must be a duration, got {value!r}",
-                hint='a unit of weeks or shorter, e.g. np.timedelta64(30, "m"), or "1w"',
+                f"{what} must be a duration, got {value!r}",
+                hint=f'a unit of weeks or shorter, e.g. {what}=np.timedelta64(30, "m")'
+                + (', or "1w"' if what == "step" else ""),
             ) from exc
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise InputError(
-            f"step must be a duration, got {value!r}",
-            hint='e.g. step="30m", "1h", "1d", 600 (seconds) or datetime.timedelta(minutes=30)',
+            f"{what} must be a duration, got {value!r}",
+            hint=f'e.g. {what}="30m", "1h", '
+            + ('"1d", ' if what == "step" else "")
+            + "600 (seconds) or datetime.timedelta(minutes=30)",
         )
-    return real(value, "step")
+    return real(value, what)
 
 
 def historical(time: object, value: object) -> bool:

@@ -11,11 +11,16 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
-from datetime import timedelta
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Union
 
-from aion_cli.api_checks import PairOf, ZoneLike, keywords_checked, refuse_unknown_keywords
+from aion_cli.api_checks import (
+    PairOf,
+    StepLike,
+    ZoneLike,
+    keywords_checked,
+    refuse_unknown_keywords,
+)
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
@@ -137,7 +142,7 @@ def build(
     scheduler: str | None = None,
     part: bool = False,
     observed: Sequence[PairOf[TimeLike]] = (),
-    graph_period: str | float | timedelta | None = None,
+    graph_period: StepLike | None = None,
     dsg_version: str | None = None,
     batch_size: int = 4000,
     progress: Progress | None = None,
@@ -153,7 +158,8 @@ def build(
     zone, else the zone the logs declare, else UTC). Without ``tz`` a new map follows the
     zone its logs declare (``aion simulate --tz`` writes it into its logs), with a note in
     ``Map.report``; a ``tz`` that differs from it is a warning. ``graph_period``: about one
-    scene graph per period of log time (``"5s"``, ``"1m"``, seconds or a ``timedelta``; 0:
+    scene graph per period of log time (``"5s"``, ``"1m"``, seconds, a ``timedelta`` or a
+    ``numpy.timedelta64``; 0:
     every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and
     ``batch_size`` as ``--dsg-version`` and ``--batch-size``. ``lineage`` (auto / same /
     different): whether ``graph``, else the logs' first scene graph, is of
@@ -318,15 +324,17 @@ def reading_options(
 
 def _period_ns(value: object) -> int:
     """``graph_period`` as ``--graph-period`` reads it, in ns: text (``"5s"``, ``"1m30s"``),
-    seconds (0: every graph) or a ``timedelta``; None is the build's default (5 s)."""
-    from aion_cli.api_checks import real
+    seconds (0: every graph), a ``timedelta`` or a ``numpy.timedelta64`` (its duration, as a
+    series ``step``'s: numpy's is an integer to ``numbers``, whose count of units was read as
+    seconds, or refused by ``float``); None is the build's default (5 s)."""
+    from aion_cli.api_checks import step
     from aion_cli.graph_schedule import DEFAULT_GRAPH_PERIOD_NS, parse_period_ns
 
     if value is None:
         return DEFAULT_GRAPH_PERIOD_NS
-    if isinstance(value, str):
-        return parse_period_ns(value)
-    seconds = value.total_seconds() if isinstance(value, timedelta) else real(value, "graph_period")
+    seconds = step(value, "graph_period")
+    if isinstance(seconds, str):
+        return parse_period_ns(seconds)
     if seconds < 0:
         raise InputError(
             f"graph_period must be 0 or more seconds, got {value!r}",

@@ -322,7 +322,10 @@ def test_the_api_takes_the_period_version_and_batch_size_as_the_cli_does(
     run_json("build", stream_log, "-o", tmp_path / "cli.aion", "--graph-period", "0", "--format",
              "json")
     assert_same_map(tmp_path / "every.aion", tmp_path / "cli.aion")
-    for period in ("5s", 5, 5.0, timedelta(seconds=5)):
+    import numpy as np
+
+    # numpy's timedelta64 is an integer to numbers: np.timedelta64(5000, "ms") was 5000 s
+    for period in ("5s", 5, 5.0, timedelta(seconds=5), np.timedelta64(5000, "ms")):
         thinned = aion.build(stream_log, tmp_path / "thinned.aion", graph_period=period)
         assert thinned.report.graph_messages == len(PERIOD_5S_USED), period
         assert thinned.report.graphs_skipped_period == N_GRAPHS - len(PERIOD_5S_USED)

@@ -5,6 +5,7 @@ stand for."""
 from __future__ import annotations
 
 from datetime import timedelta
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -43,6 +44,23 @@ def test_a_step_may_be_a_numpy_timedelta64(m: aion.Map) -> None:
     assert len(p.departures) == 4
     with pytest.raises(InputError, match="step must be a duration"):
         m.predict_series(T, "2026-01-12 10:40", np.timedelta64(1, "M"), tz="UTC")
+
+
+def test_a_numpy_timedelta64_where_a_number_is_wanted_is_refused_by_name(
+    m: aion.Map, office: Office, tmp_path: Path
+) -> None:
+    """numpy's ``timedelta64`` counts as an integer to ``numbers``, so a number argument
+    passed its checks and ``float()`` then raised a bare ``TypeError`` from inside
+    (``m.plan(..., speed=np.timedelta64(1, "s"))``, ``m.holdout(..., radius=...)``): an
+    ``InputError`` naming the argument now. ``graph_period`` takes one as its duration (a
+    test of tests/test_pipeline_graphs.py builds with it); one of months is refused by name."""
+    with pytest.raises(InputError, match="speed must be a number"):
+        m.plan("p1", "p2", time=T, tz="UTC", speed=np.timedelta64(1, "s"))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="graph_period must be a duration"):
+        aion.build(office.log, tmp_path / "x.aion", graph_period=np.timedelta64(1, "M"))
+    with pytest.raises(InputError, match="graph_period must be a duration"):
+        aion.build(office.log, tmp_path / "x.aion", graph_period=[5])  # type: ignore[arg-type]
+    assert not (tmp_path / "x.aion").exists()
 
 
 def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
