@@ -31,12 +31,21 @@ and the types of the other results, each by the name its repr gives (``BuildRepo
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Union, overload
 
 from aion_cli import api_checks as check
-from aion_cli.api_checks import PairOf, PlaceLike, PointLike, StepLike, TimeLike, ZoneLike
+from aion_cli.api_checks import (
+    CountLike,
+    NodesLike,
+    PairOf,
+    PlaceLike,
+    PointLike,
+    StepLike,
+    TimeLike,
+    ZoneLike,
+)
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import MEMORY, Plan, Table
 from aion_cli.api_time import query_time, query_times, query_zone, to_ns
@@ -210,9 +219,9 @@ class Map(Generic[Report]):
         historical: bool = False,
         tz: ZoneLike | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] | str | None = None,
+        nodes: NodesLike | None = None,
         at: PointLike | None = None,
-        top: int | None = None,
+        top: CountLike | None = None,
     ) -> Table:
         """Flows per entry at ``time`` (default now; ``historical=True``: as observed), as
         ``aion predict`` with ``--layer``, ``--node`` (``nodes``: ids, or one id), ``--at``
@@ -251,9 +260,9 @@ class Map(Generic[Report]):
         *,
         tz: ZoneLike | None = None,
         layer: str = "all",
-        nodes: Sequence[str | int] | str | None = None,
+        nodes: NodesLike | None = None,
         at: PointLike | None = None,
-        top: int | None = None,
+        top: CountLike | None = None,
     ) -> SeriesTable:
         """Predicted flow of the entries asked for at ``start``, ``start + step``, ... up to
         ``end`` inclusive (``step``: elapsed time as ``"1h"``, ``"30m"``, ``"1h30m"``,

@@ -57,6 +57,17 @@ PairOf = tuple[_T, _T] | list[_T]
 """Two items (``leave=(earliest, latest)``, ``path=(start, goal)``, an ``observed`` span): a
 tuple or a list of two (:func:`pair` reads it)."""
 
+NodesLike = str | int | Iterable[str | int]
+"""Entries asked for (``nodes=``): one id or name, or any iterable of them (a list, a set, a
+numpy array of ids, a generator; :func:`node_list` reads it)."""
+
+CountLike = Union[int, "np.integer[Any]"]
+"""A whole number (``top``, ``workers``, ``batch_size``): Python's or numpy's (:func:`count`)."""
+
+SpansLike = Sequence[PairOf[TimeLike]] | tuple[TimeLike, TimeLike]
+"""``observed`` spans: ``(start, end)`` pairs, or one ``(start, end)`` alone (:func:`spans`
+reads it, a list of two too; typed as a tuple so that a list of lists stays a list of spans)."""
+
 SECONDS_LIKE_NS = 10**16
 """Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,
 milliseconds or microseconds than a time of 1970's first months."""

@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, Union
 
 from aion_cli.api_checks import (
-    PairOf,
+    CountLike,
+    SpansLike,
     StepLike,
     ZoneLike,
     keywords_checked,
@@ -24,7 +25,7 @@ from aion_cli.api_checks import (
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
-    from aion_cli.api import Map, TimeLike
+    from aion_cli.api import Map
     from aion_cli.build_options import BuildOptions
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
@@ -138,13 +139,13 @@ def build(
     nav_layer: str | None = None,
     detections_mapping: PathLike | None = None,
     log_format: str | None = None,
-    workers: int = 1,
+    workers: CountLike = 1,
     scheduler: str | None = None,
     part: bool = False,
-    observed: Sequence[PairOf[TimeLike]] = (),
+    observed: SpansLike = (),
     graph_period: StepLike | None = None,
     dsg_version: str | None = None,
-    batch_size: int = 4000,
+    batch_size: CountLike = 4000,
     progress: Progress | None = None,
 ) -> Map[BuildReport]:
     """Build a map from logs (or extend ``continue_from`` with them) and write it to

@@ -78,6 +78,13 @@ def uses(m: aion.Map, pose: np.ndarray, stamps: np.ndarray) -> None:
     m.holdout(name for name in ["later.mcap"])
     aion.to_ns(np.int64(1768207200000000000))
     m.predict(np.int64(1768207200000000000), nodes="p1")
+    # what the API takes and its annotations refused: any iterable of ids, numpy counts and
+    # durations, one observed span alone
+    m.predict(nodes={"p1", "p2"}, top=np.int64(3))
+    m.predict_series(stamps[0], stamps[-1], "1h", nodes=np.array(["p1", "p2"]), top=np.int64(2))
+    m.predict(nodes=(row for row in ["p1", "p2"]))
+    aion.build("a.mcap", observed=("2026-01-05 08:00", "2026-01-05 10:00"), workers=np.int64(2),
+               batch_size=np.int64(1000), graph_period=np.timedelta64(5, "s"))
     aion.build((name for name in ["a.mcap", "b.mcap"]), output="ab.aion",
                observed=[["2026-01-05 08:00", "2026-01-05 10:00"]])
     aion.merge((name for name in ["a.aion", "b.aion"]), "ab.aion")

@@ -151,3 +151,18 @@ def test_to_ns_refuses_an_extra_argument_as_the_api_does() -> None:
     assert caught.value.hint == "did you mean zone? to_ns() takes: time, zone"
     assert aion.to_ns(T, zone="UTC") == 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
 
+
+
+def test_without_output_the_map_is_written_where_aion_build_writes_it(
+    office: Office, tmp_path: Path
+) -> None:
+    """docs/API.md did not say where ``aion.build(logs)`` writes without ``output``: beside
+    the first log, named as it with ``.aion``, as ``aion build LOG`` (and continued maps over
+    ``continue_from``'s file, as ``--map``)."""
+    import shutil
+
+    log = tmp_path / "monday.mcap"
+    shutil.copy(office.log, log)
+    built = aion.build(log)
+    assert built.path == tmp_path / "monday.aion"
+    assert [i.name for i in aion.Map.load(built.path).manifest.inputs] == ["monday.mcap"]

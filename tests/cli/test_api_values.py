@@ -163,3 +163,20 @@ def test_a_map_state_s_repr_is_one_line(sample_map: Path) -> None:
         f"<MapState: {entries:,} entries ({nodes:,} nodes, {counts['cells']:,} cells), "
         f"{counts['used']:,} detections accepted, 8 direction bins, read for queries>"
     )
+
+
+def test_nodes_as_any_iterable_and_counts_as_numpy_integers_answer_as_a_list(
+    m: aion.Map,
+) -> None:
+    """``nodes=`` was typed a sequence, though the API reads any iterable of ids (a set, a
+    numpy array of ids, a generator), and ``top`` / ``workers`` / ``batch_size`` plain ints,
+    though numpy's are read alike: the annotations admit them now (tests/test_api_types.py),
+    and each answers as the list and the int do."""
+    import numpy as np
+
+    ids = [r["id"] for r in m.predict(T, tz="UTC", top=3).records()]
+    listed = m.predict(T, tz="UTC", nodes=ids)
+    assert len(listed) == 3
+    for nodes in (set(ids), np.array(ids), (i for i in ids), dict.fromkeys(ids).keys()):
+        assert m.predict(T, tz="UTC", nodes=nodes) == listed
+    assert m.predict(T, tz="UTC", top=np.int64(3)) == m.predict(T, tz="UTC", top=3)
