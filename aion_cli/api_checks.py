@@ -29,6 +29,7 @@ _T = TypeVar("_T")
 
 if TYPE_CHECKING:
     import numpy as np
+    from typing_extensions import TypeIs  # typing's from Python 3.13
 
 
 TimeLike = Union[str, int, datetime, "np.datetime64", "np.integer[Any]"]
@@ -73,6 +74,17 @@ SECONDS_LIKE_NS = 10**16
 milliseconds or microseconds than a time of 1970's first months."""
 
 
+def whole(value: object) -> TypeIs[numbers.Integral]:
+    """Whether ``value`` is a whole number (Python's or numpy's, not a ``bool``): numpy
+    registers its ``timedelta64`` with ``numbers.Integral`` too, which ``int()`` then refuses
+    or reads as its count of units (a duration is no count, node id or time)."""
+    return (
+        isinstance(value, numbers.Integral)
+        and not isinstance(value, bool)
+        and type(value).__name__ != "timedelta64"
+    )
+
+
 def zone_name(tz: object, what: str = "tz") -> str | None:
     """``tz`` as a zone name: None, a name (``"Europe/London"``, ``"UTC+02:00"``), a
     ``zoneinfo.ZoneInfo`` (its key) or ``datetime.timezone.utc``."""
@@ -105,7 +117,7 @@ def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
             f"{what} must be node ids (text), got bytes {nodes!r}",
             hint=f"decode it: {what}={bytes(nodes).decode(errors='replace')!r}",
         )
-    if isinstance(nodes, str | numbers.Integral):
+    if isinstance(nodes, str) or whole(nodes):
         nodes = [nodes]
     if not hasattr(nodes, "__iter__"):
         raise InputError(
@@ -114,7 +126,7 @@ def node_list(nodes: object, what: str = "nodes") -> list[str | int]:
         )
     out: list[str | int] = []
     for node in nodes:
-        if isinstance(node, bool) or not isinstance(node, str | numbers.Integral):
+        if not (isinstance(node, str) or whole(node)):
             raise InputError(
                 f"{what}: {node!r} is not a node id",
                 hint='node ids are strings such as "p12", "R2", "kitchen" or cell ids "c<key>"',
@@ -127,7 +139,7 @@ def count(value: object, what: str, minimum: int = 1) -> int | None:
     """An optional whole number at least ``minimum`` (``top``, ``workers``)."""
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+    if not whole(value):
         raise InputError(
             f"{what} must be a whole number, got {value!r}",
             hint=f"e.g. {what}={max(minimum, 2)} (an int, not a float or a string)",
@@ -213,6 +225,12 @@ def time_value(time: object) -> object:
         raise InputError(
             f"not a time: {time!r}",
             hint='a string ("2026-01-12 08:30", "now"), a datetime or UNIX nanoseconds',
+        )
+    if isinstance(time, timedelta) or type(time).__name__ == "timedelta64":
+        # a duration, not a time (numpy's is an Integral to numbers, which int() refuses)
+        raise InputError(
+            f"not a time: {time!r} (a duration)",
+            hint='a time relative to now is text: "+2h", "-30m"',
         )
     if isinstance(time, numbers.Integral):
         value = int(time)
@@ -356,7 +374,7 @@ def text(value: object, what: str) -> str | None:
     layer key given as an integer (``nav_layer=3``) is its text."""
     if value is None or isinstance(value, str):
         return value
-    if what == "nav_layer" and isinstance(value, numbers.Integral) and not isinstance(value, bool):
+    if what == "nav_layer" and whole(value):
         return str(int(value))
     raise InputError(
         f"{what} must be a string, got {value!r}", hint=f'e.g. {what}="{_EXAMPLES.get(what, "")}"'
@@ -391,7 +409,7 @@ def endpoint(node: object, what: str) -> str | int:
             f"{what} must be a node id, a room name or a point, got {node!r}",
             hint='e.g. "p12", "kitchen", "3.5,-1.0" or (3.5, -1.0)',
         )
-    if isinstance(node, numbers.Integral):
+    if whole(node):
         if not 0 <= int(node) < 1 << 64:  # node ids are uint64
             raise InputError(
                 f"{what} must be a node id (0 .. 2**64 - 1), a room name or a point, "

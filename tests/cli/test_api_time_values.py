@@ -63,6 +63,24 @@ def test_a_numpy_timedelta64_where_a_number_is_wanted_is_refused_by_name(
     assert not (tmp_path / "x.aion").exists()
 
 
+def test_a_duration_where_a_time_count_or_node_is_wanted_is_an_input_error(m: aion.Map) -> None:
+    """``m.predict(np.timedelta64(2, "h"))`` raised ``TypeError: int() argument must be ...
+    not 'datetime.timedelta'`` from inside (numpy's timedelta64 is an integer to ``numbers``),
+    and so did ``top=`` or ``nodes=`` one; a duration is refused by name now, a time with the
+    relative text that says "in two hours"."""
+    for duration in (np.timedelta64(2, "h"), timedelta(hours=2)):
+        with pytest.raises(InputError, match=r"not a time: .* \(a duration\)") as caught:
+            m.predict(duration)  # type: ignore[arg-type]
+        assert '"+2h"' in str(caught.value.hint)
+    with pytest.raises(InputError, match="top must be a whole number"):
+        m.predict(T, tz="UTC", top=np.timedelta64(3, "s"))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="is not a node id"):
+        m.predict(T, tz="UTC", nodes=[np.timedelta64(3, "h")])  # type: ignore[list-item]
+    with pytest.raises(InputError, match="start must be a point"):
+        m.plan(np.timedelta64(3, "h"), "p2", time=T, tz="UTC")  # type: ignore[arg-type]
+    assert m.predict(T, tz="UTC", top=np.int64(2)) == m.predict(T, tz="UTC", top=2)
+
+
 def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
     """numpy's ``datetime64`` (what a numpy array of times holds, without pandas) is its
     wall-clock time in the zone, as a naive ``datetime`` (before: "not a time")."""
