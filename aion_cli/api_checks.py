@@ -421,6 +421,12 @@ def endpoint(node: object, what: str) -> str | int:
     return where
 
 
+_ZONE_WORDS = ("tz", "zone", "timezone")
+"""The API's names of a zone argument: ``tz`` (queries, ``build``), ``zone`` (``to_ns``),
+``timezone`` (``Map.from_state``). One given where another is meant (``aion.to_ns(t,
+tz="UTC")``) is hinted as the other, which no spelling distance finds (``tz`` / ``zone``)."""
+
+
 def refuse_unknown_keywords(where: str, given: Iterable[str], valid: Sequence[str]) -> None:
     """:class:`UnknownArgumentError` for the first of ``given`` that is not in ``valid``
     (the keywords ``where``, a function's name, takes): Python's words, a close spelling and
@@ -429,7 +435,8 @@ def refuse_unknown_keywords(where: str, given: Iterable[str], valid: Sequence[st
     if not unknown:
         return
     name = unknown[0]
-    close = difflib.get_close_matches(name, valid, n=1, cutoff=0.75)
+    close = [z for z in _ZONE_WORDS if name in _ZONE_WORDS and z != name and z in valid][:1]
+    close = close or difflib.get_close_matches(name, valid, n=1, cutoff=0.75)
     raise UnknownArgumentError(
         f"{where}() got an unexpected keyword argument {name!r}"
         + (f" (and {len(unknown) - 1} more)" if len(unknown) > 1 else ""),

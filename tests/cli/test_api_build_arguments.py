@@ -152,6 +152,23 @@ def test_to_ns_refuses_an_extra_argument_as_the_api_does() -> None:
     assert aion.to_ns(T, zone="UTC") == 1_768_207_200 * 10**9  # 2026-01-12 08:40 UTC
 
 
+def test_a_zone_keyword_given_by_another_of_the_apis_names_hints_the_right_one() -> None:
+    """The zone is ``tz=`` in queries and ``build``, ``zone=`` in ``to_ns`` and ``timezone=``
+    in ``Map.from_state``; ``aion.to_ns(t, tz="UTC")`` was hinted only "to_ns() takes: time,
+    zone" (no spelling is close to ``tz``). The hint names the one meant."""
+    from aion_cli.errors import UnknownArgumentError
+
+    with pytest.raises(UnknownArgumentError) as caught:
+        aion.to_ns(T, tz="UTC")  # type: ignore[call-arg]
+    assert caught.value.hint == "did you mean zone? to_ns() takes: time, zone"
+    with pytest.raises(UnknownArgumentError) as caught:
+        aion.Map.from_state(None, tz="UTC")  # type: ignore[arg-type, call-arg]
+    assert caught.value.hint == "did you mean timezone? Map.from_state() takes: state, timezone"
+    with pytest.raises(UnknownArgumentError) as caught:
+        aion.build("x.mcap", timezone="UTC")  # type: ignore[call-arg]
+    assert (caught.value.hint or "").startswith("did you mean tz? build() takes: logs, output, ")
+
+
 
 def test_without_output_the_map_is_written_where_aion_build_writes_it(
     office: Office, tmp_path: Path
