@@ -11,9 +11,9 @@
 
 Paths are ``str`` or ``os.PathLike``. Times are aion time strings (``"2026-11-23 08:30"``,
 ``"monday 08:30"``, ``"+2h"``, ``"now"``, ``"1700000000"``), a ``datetime`` (a pandas
-``Timestamp`` too) or a ``numpy.datetime64`` (these and strings without a zone are read in
-the query's ``tz``, else the map's zone; a ``datetime64`` has none), or integer nanoseconds
-since 1970 (UTC). Errors are the typed errors
+``Timestamp`` too), a ``date`` (its midnight) or a ``numpy.datetime64`` (these and strings
+without a zone are read in the query's ``tz``, else the map's zone; a ``datetime64`` has
+none), or integer nanoseconds since 1970 (UTC). Errors are the typed errors
 of :mod:`aion_cli.errors` (``InputError`` and its subclasses for bad input), exactly
 as the CLI reports them. The CLI's ``predict``, ``plan`` and ``export`` are formatting over
 the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,

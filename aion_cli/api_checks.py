@@ -17,7 +17,7 @@ import math
 import numbers
 import os
 from collections.abc import Callable, Iterable, Sequence
-from datetime import datetime, timedelta, tzinfo
+from datetime import date, datetime, timedelta, tzinfo
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar, Union
 
 from aion_cli.errors import InputError, UnknownArgumentError
@@ -32,10 +32,10 @@ if TYPE_CHECKING:
     from typing_extensions import TypeIs  # typing's from Python 3.13
 
 
-TimeLike = Union[str, int, datetime, "np.datetime64", "np.integer[Any]"]
-"""A time argument: an aion time string, a ``datetime``, a ``numpy.datetime64`` (its wall-clock
-time, as a naive ``datetime``) or integer UNIX nanoseconds, Python's or numpy's
-(:func:`to_ns` reads it)."""
+TimeLike = Union[str, int, datetime, date, "np.datetime64", "np.integer[Any]"]
+"""A time argument: an aion time string, a ``datetime``, a ``date`` (its midnight, as the text
+``"2026-01-12"``), a ``numpy.datetime64`` (its wall-clock time, as a naive ``datetime``) or
+integer UNIX nanoseconds, Python's or numpy's (:func:`to_ns` reads it)."""
 
 StepLike = Union[str, float, timedelta, "np.timedelta64"]
 """A series or departure step: ``"30m"``, ``"1d"``, seconds, a ``timedelta`` or a
@@ -257,6 +257,8 @@ def time_value(time: object) -> object:
         raise InputError(f"not a time: {time!r}", hint="NaT marks a missing time")
     if isinstance(time, str | datetime):
         return time
+    if isinstance(time, date):  # a day alone: its midnight in the zone, as "2026-01-12" reads
+        return time.isoformat()
     raise InputError(
         f"not a time: {time!r}",
         hint="a time string, a datetime, a numpy.datetime64 or integer nanoseconds",

@@ -16,7 +16,8 @@ from aion_cli.errors import InputError
 @keywords_checked
 def to_ns(time: TimeLike, zone: Zone | str | tzinfo | None = "UTC") -> int:
     """Nanoseconds since 1970 (UTC) of an aion time string, a ``datetime`` (a pandas
-    ``Timestamp`` to its nanosecond) or a ``numpy.datetime64`` (naive: in ``zone``, a name
+    ``Timestamp`` to its nanosecond), a ``date`` (its midnight, as its text ``"2026-01-12"``)
+    or a ``numpy.datetime64`` (naive: in ``zone``, a name
     such as ``"Europe/London"``, a ``ZoneInfo`` or an aion ``Zone``; default UTC, None: the
     machine's) or integer nanoseconds (one below 10^16, which would lie in 1970's first
     months, is refused as likely seconds); outside 1900 .. 2261 is an ``InputError``."""

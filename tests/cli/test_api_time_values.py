@@ -12,7 +12,7 @@ import pytest
 
 import aion_cli as aion
 from aion_cli.errors import InputError
-from tests.cli.conftest import Office
+from tests.cli.conftest import Office, run_json
 
 T = "2026-01-12 08:40"  # the office log's Monday (tests/cli/logdata.py)
 
@@ -79,6 +79,25 @@ def test_a_duration_where_a_time_count_or_node_is_wanted_is_an_input_error(m: ai
     with pytest.raises(InputError, match="start must be a point"):
         m.plan(np.timedelta64(3, "h"), "p2", time=T, tz="UTC")  # type: ignore[arg-type]
     assert m.predict(T, tz="UTC", top=np.int64(2)) == m.predict(T, tz="UTC", top=2)
+
+
+def test_a_date_is_its_midnight_as_the_text_of_the_day(m: aion.Map, office: Office) -> None:
+    """``m.predict(date(2026, 1, 12))`` was "not a time", though the text ``"2026-01-12"``
+    (``--time 2026-01-12``) is that day's midnight in the zone: a ``date`` is read as its
+    text now, in predict, a series and to_ns alike."""
+    from datetime import date
+
+    day = date(2026, 1, 12)
+    table = m.predict(day, tz="Europe/Madrid", top=3)
+    assert table.time == "2026-01-12 00:00:00+01:00"
+    assert table == m.predict("2026-01-12", tz="Europe/Madrid", top=3)
+    cli = run_json("predict", office.map, "--time", "2026-01-12", "--tz", "Europe/Madrid",
+                   "--top", "3", "--format", "json")
+    assert table.to_dict() == cli
+    week = m.predict_series(day, date(2026, 1, 19), "1d", tz="UTC", top=2)
+    assert week == m.predict_series("2026-01-12", "2026-01-19", "1d", tz="UTC", top=2)
+    assert len(week.times) == 8
+    assert aion.to_ns(day) == aion.to_ns("2026-01-12") == 1_768_176_000 * 10**9
 
 
 def test_a_numpy_datetime64_is_a_naive_time(m: aion.Map) -> None:
