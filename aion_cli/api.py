@@ -392,45 +392,23 @@ class Map(Generic[Report]):
         folder. Files of aion's no export wrote there are replaced only with ``force``.
         ``series=(start, end)``: every ``step`` (default ``"1h"``) from start to end, as
         ``aion export --from --to --step`` (a folder per time, or one MCAP file to scrub)."""
+        from aion_cli.api_export import export_target, refuse_combination
         from aion_cli.api_make import warn_of
-        from aion_cli.exports import cells_left_out, export_format, scene_file, write_export
+        from aion_cli.exports import cells_left_out, write_export
 
-        shown = "format='ply' or Map.picture"
-
-        if format not in (None, "ply", "pcd", "mcap", "dsg"):
-            raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
-        self._check_file()
         out = as_path(folder)
-        format = export_format(format, out)
-        if format == "png":
-            raise InputError(
-                f"{str(out)!r} names a picture", hint="Map.picture(file) writes the PNG"
-            )
+        format = export_target(format, out)
+        self._check_file()
         force = check.flag(force, "force")
         times, zone = query_times(time, historical, series, step, tz, self.timezone)
         ends = self._path_ends(path)
+        refuse_combination(format, out, ends, series)
         label = self._label
-        if format == "dsg" and ends is not None:
-            raise InputError(
-                "a scene-graph file holds no path: leave out path",
-                hint="format='ply' or format='mcap' draws the path; "
-                "Map.picture(file, path=...) draws it as a PNG",
-            )
-        if format == "dsg" and series is not None:
-            raise InputError(
-                "a scene-graph file holds one time: leave out series",
-                hint="format='ply' or format='mcap' writes a series; "
-                "Map.picture(file, series=...) draws it as a PNG",
-            )
-        if series is not None and scene_file(format, out):
-            raise InputError(
-                f"a series writes one {format} scene per time into a folder, got a file: {out}",
-                hint="name a folder (e.g. 'series/'), or a .mcap file for one file to scrub",
-            )
         written = write_export(
             self._loaded, label, out, times, zone, format, ends, series=series is not None,
             force=force,
         )
+        shown = "format='ply' or Map.picture"
         left_out = None if written.graph is None else cells_left_out(self._loaded, shown)
         warn_of([left_out[0]] if left_out is not None and left_out[1] else [], [])
         return written.files

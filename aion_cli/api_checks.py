@@ -18,56 +18,27 @@ import numbers
 import os
 from collections.abc import Callable, Iterable, Sequence
 from datetime import date, datetime, timedelta, tzinfo
-from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar, Union
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
+# the API's argument types live in api_typing; importable from here as before (explicitly)
+from aion_cli.api_typing import CountLike as CountLike
+from aion_cli.api_typing import NodesLike as NodesLike
+from aion_cli.api_typing import PairOf as PairOf
+from aion_cli.api_typing import PlaceLike as PlaceLike
+from aion_cli.api_typing import PointLike as PointLike
+from aion_cli.api_typing import SpansLike as SpansLike
+from aion_cli.api_typing import StepLike as StepLike
+from aion_cli.api_typing import TimeLike as TimeLike
+from aion_cli.api_typing import ZoneLike as ZoneLike
 from aion_cli.errors import InputError, UnknownArgumentError
 
 _P = ParamSpec("_P")
 _R = TypeVar("_R")
 _C = TypeVar("_C", bound=type)
-_T = TypeVar("_T")
 
 if TYPE_CHECKING:
-    import numpy as np
     from typing_extensions import TypeIs  # typing's from Python 3.13
 
-
-TimeLike = Union[str, int, datetime, date, "np.datetime64", "np.integer[Any]"]
-"""A time argument: an aion time string, a ``datetime``, a ``date`` (its midnight, as the text
-``"2026-01-12"``), a ``numpy.datetime64`` (its wall-clock time, as a naive ``datetime``) or
-integer UNIX nanoseconds, Python's or numpy's (:func:`to_ns` reads it)."""
-
-StepLike = Union[str, float, timedelta, "np.timedelta64"]
-"""A series or departure step: ``"30m"``, ``"1d"``, seconds, a ``timedelta`` or a
-``numpy.timedelta64`` (:func:`step` reads it)."""
-
-ZoneLike = str | tzinfo
-"""A zone argument (``tz``): a name (``"Europe/London"``, ``"UTC+02:00"``), a
-``zoneinfo.ZoneInfo`` or a fixed-offset ``datetime.timezone`` (:func:`zone_name` reads it)."""
-
-PointLike = Union[str, Sequence[float], "np.ndarray[Any, Any]"]
-"""A point (``at=``): ``"x,y[,z]"``, or 2 or 3 numbers in a sequence or a numpy array (a pose's
-``[:2]``)."""
-
-PlaceLike = Union[str, int, Sequence[float], "np.ndarray[Any, Any]"]
-"""A plan's start or goal (``Map.plan``, ``path=``): a node id (``"p12"``, its integer
-NodeSymbol), a room or building by id or name, or a point (``"x,y[,z]"`` or 2 or 3 numbers,
-a numpy array too)."""
-
-PairOf = tuple[_T, _T] | list[_T]
-"""Two items (``leave=(earliest, latest)``, ``path=(start, goal)``, an ``observed`` span): a
-tuple or a list of two (:func:`pair` reads it)."""
-
-NodesLike = str | int | Iterable[str | int]
-"""Entries asked for (``nodes=``): one id or name, or any iterable of them (a list, a set, a
-numpy array of ids, a generator; :func:`node_list` reads it)."""
-
-CountLike = Union[int, "np.integer[Any]"]
-"""A whole number (``top``, ``workers``, ``batch_size``): Python's or numpy's (:func:`count`)."""
-
-SpansLike = Sequence[PairOf[TimeLike]] | tuple[TimeLike, TimeLike]
-"""``observed`` spans: ``(start, end)`` pairs, or one ``(start, end)`` alone (:func:`spans`
-reads it, a list of two too; typed as a tuple so that a list of lists stays a list of spans)."""
 
 SECONDS_LIKE_NS = 10**16
 """Integer times are nanoseconds: below this (1970-04-26) one is far more likely UNIX seconds,
