@@ -144,12 +144,7 @@ class LogSet:
         spans (first to last message), so the time between two logs of other days is left
         out and two logs of one moment count it once; the storage files of one rosbag2 bag
         are joined first (:meth:`recording_times`: it recorded the time between them too)."""
-        holds = [
-            any(t.topic == topic and t.count for t in s.topics.values())
-            or any(c.topic == topic and c.count for c in s.other_channels)
-            for s in self._sources
-        ]
-        return covered_ns(self._joined(holds).values())
+        return covered_ns(self.recording_times([topic]).values())
 
     def recorded_total_ns(self) -> int:
         """How long the logs recorded: the union of the spans of :meth:`recording_times` (the
@@ -231,11 +226,19 @@ class LogSet:
         position of the path it was opened from; the storage files of one bag share it)."""
         return list(self._recordings)
 
-    def recording_times(self) -> dict[int, tuple[int, int]]:
+    def recording_times(self, topics: Iterable[str] | None = None) -> dict[int, tuple[int, int]]:
         """Per recording (:attr:`recordings`: a path given, the storage files of one bag
         joined), the first and last message time its files' indexes or summaries give;
-        recordings without a message are left out."""
-        return self._joined([file.message_count > 0 for file in self.files])
+        recordings without a message are left out. ``topics``: of the files that hold a
+        message of one of them only (the files' whole spans)."""
+        if topics is None:
+            return self._joined([file.message_count > 0 for file in self.files])
+        selected = set(topics)
+        return self._joined([
+            any(t.topic in selected and t.count for t in s.topics.values())
+            or any(c.topic in selected and c.count for c in s.other_channels)
+            for s in self._sources
+        ])
 
     def _joined(self, kept: list[bool]) -> dict[int, tuple[int, int]]:
         """Per recording, the first and last message time of its files that are ``kept``."""
