@@ -46,6 +46,7 @@ def observe(
     whole: TimeCheck | None = None,
     opens_map: bool = False,
     begun: bool = False,
+    tf_logs: tuple[tuple[int, int], ...] = (),
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -62,9 +63,11 @@ def observe(
     parallel shard) observes them. ``whole``: a time shard's ``times`` without its limits;
     whether the robot observes a group of logs is judged by all its poses, not the part's.
     ``opens_map``: the shard's logs start a new map (no map or logs before them); ``begun``:
-    a shard after others (or onto a map): where its map starts (:func:`_one_pass_start`)."""
+    a shard after others (or onto a map): where its map starts (:func:`_one_pass_start`).
+    ``tf_logs``: the first and last message time of each log holding ``/tf`` messages; a
+    run of poses that is all of one such log's is never a stray (:func:`robot_trajectory`)."""
     map_frame, base_frame = frames
-    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings)
+    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings, tf_logs)
     if tf is not None and traj is None:
         report.notes.append(no_trajectory(tf, map_frame, base_frame))
     if traj is not None:

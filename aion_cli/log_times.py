@@ -22,7 +22,9 @@ internal error). So a build takes its time span only from the messages it uses, 
   bigger log, is kept in ``build A B`` as in ``build B --map A.aion`` and in a parallel
   build's shard of its own (a build of such a log alone keeps everything).
 
-The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory.
+The same rule (:func:`stray_mask`) drops robot poses far from the rest of the trajectory, with
+the same exemption for a run of poses stamped within one log holding TF, where no other pose
+lies (:func:`aion_cli.tf_trajectory.robot_trajectory`).
 Everything here is numpy over int64 arrays; the per-message part is one ``array.append``, or
 none where the times come as arrays from a log's index (:meth:`TopicTimes.add_stream`).
 """

@@ -407,6 +407,8 @@ class _Build(StreamStep):
             return self.graphs.has_agents(logset, takewhile(lambda m: m.log_time_ns < hi, inside))
 
         frames = (self.opts.map_frame, self.opts.base_frame)
+        # the logs holding /tf: a short one's whole trajectory is its own, not strays
+        dynamic = [t for t in plan.names("tf") if not t.endswith("_static")] if plan.tf else []
         observe(
             mapper, tf, frames, graph_agents, logset, self._times, self.report,
             self.opts.observed, self._detection_windows,
@@ -415,6 +417,7 @@ class _Build(StreamStep):
             self._whole_times,
             self.at.opens_map and self.start is None,  # (learnt onto a map: it has started)
             self.shard and not self.at.opens_map and self.start is None,
+            tuple(logset.recording_times(dynamic).values()),
         )
 
     def _fixed_graph(

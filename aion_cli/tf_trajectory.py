@@ -13,21 +13,33 @@ import numpy as np
 from aion_cli.engine.time_text import utc_text
 from aion_cli.engine.types import Trajectory
 from aion_cli.errors import TransformError
-from aion_cli.log_times import stray_mask
+from aion_cli.log_times import own_recordings, stray_mask
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from aion_cli.formats.tf import TfBuffer
 
 __all__ = ["moving_frames", "no_trajectory", "robot_trajectory", "wrong_base_warning"]
 
 
 def robot_trajectory(
-    tf: TfBuffer | None, map_frame: str, base_frame: str, warnings: list[str]
+    tf: TfBuffer | None,
+    map_frame: str,
+    base_frame: str,
+    warnings: list[str],
+    recordings: Sequence[tuple[int, int]] = (),
 ) -> Trajectory | None:
     """The robot's ``map_frame -> base_frame`` poses (``--map-frame``, ``--base-frame``),
     without stray ones (the time-sanity rule of :func:`aion_cli.log_times.stray_mask` on the
     poses' own stamps: a pose a day away from the rest of the trajectory would make its far
-    window an observed one)."""
+    window an observed one). ``recordings``: the first and last message time of each input
+    log that holds TF poses (``/tf``); a run of poses stamped inside one of them, where no
+    other pose lies, is that log's own trajectory and stays
+    (:func:`aion_cli.log_times.own_recordings`, as for log times): a short robot log a day
+    away from a bigger one keeps its poses in one build of both as in a build of it alone
+    (``--map``, a parallel build's shard of its own). Logs without ``/tf`` are left out: a
+    stray stamp that falls in a fixed sensor's log is no pose of that log."""
     if tf is None:
         return None
     try:
@@ -37,7 +49,7 @@ def robot_trajectory(
     if len(traj) == 0:
         return None
     t = np.asarray(traj.t_ns, dtype=np.int64)
-    stray = stray_mask(t)
+    stray = own_recordings(t, stray_mask(t), recordings)
     if stray.any():
         warnings.append(
             f"{int(stray.sum()):,} robot pose(s) ignored: stamped more than a day away from "
