@@ -36,6 +36,11 @@ SKETCH_SIZE = 128
 MIN_ALIKE = 2
 #: the share of the fewer samples over the time both sketches hold that must be alike
 ALIKE_SHARE = 0.5
+#: the share of all the samples of the sketch with fewer that must be alike for one to
+#: repeat the other: a copy, an excerpt (a cut), or the original of an excerpt. Logs that
+#: share only part of their time (two files of one recording that overlap by minutes) hold
+#: fewer: their people count twice in that time only, as when one build is given both
+REPEAT_SHARE = 0.8
 
 U64 = npt.NDArray[np.uint64]
 
@@ -174,13 +179,16 @@ def alike(a: DetectionSketch, b: DetectionSketch) -> tuple[int, int]:
 
 
 def one_recording(a: DetectionSketch, b: DetectionSketch) -> tuple[int, int] | None:
-    """``(alike, compared)`` of :func:`alike` when ``a`` and ``b`` sample one recording (at
-    least :data:`MIN_ALIKE` samples alike, and :data:`ALIKE_SHARE` of those compared); None
-    otherwise."""
+    """``(alike, samples)`` when one of ``a`` and ``b`` repeats the other: over the time both
+    cover, at least :data:`MIN_ALIKE` samples alike and :data:`ALIKE_SHARE` of those
+    compared (:func:`alike`), and those alike are :data:`REPEAT_SHARE` of all the samples
+    (``samples``, at the coarser level) of the sketch with fewer; None otherwise."""
     same, compared = alike(a, b)
-    if same >= MIN_ALIKE and same >= ALIKE_SHARE * compared:
-        return same, compared
-    return None
+    if same < MIN_ALIKE or same < ALIKE_SHARE * compared:
+        return None
+    level = max(a.level, b.level)
+    fewer = min(int(_below(a.h, level).sum()), int(_below(b.h, level).sum()))
+    return (same, fewer) if same >= REPEAT_SHARE * fewer else None
 
 
 def batch_alike(s: DetectionSketch, t_ns: I64, xyz: F64) -> tuple[int, int]:

@@ -77,6 +77,22 @@ def test_copies_cut_and_rounded_are_one_recording_others_are_not() -> None:
     assert all(one_recording(whole, o) is None for o in others)
 
 
+def test_two_files_of_one_recording_that_share_a_fifth_of_their_time_do_not_repeat() -> None:
+    """Two files of one recording that overlap by minutes hold the same detections then
+    (every sample of that time alike), but neither repeats the other: their people count
+    twice in that time only, as when one build is given both."""
+    t, xyz = _detections(5)
+    early, late = slice(0, 6 * N // 10), slice(4 * N // 10, N)
+    a, b = _sketch(t[early], xyz[early]), _sketch(t[late], xyz[late])
+    same, compared = alike(a, b)
+    assert same == compared > 0
+    assert one_recording(a, b) is None
+    # one file inside the other: a repeat, whichever is given first
+    inside = slice(N // 10, 5 * N // 10)
+    c = _sketch(t[inside], xyz[inside])
+    assert one_recording(a, c) == one_recording(c, a) is not None
+
+
 def test_a_stored_sketch_reads_back_and_a_damaged_one_is_none() -> None:
     t, xyz = _detections(3)
     s = _sketch(t, xyz)
