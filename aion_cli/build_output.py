@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from aion_cli.manifest import InputLog, Manifest, add_counts, part_spans
 from aion_cli.mapquery import state_counts
+from aion_cli.recording_twins import recording_entry, recordings_after
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport
@@ -129,6 +130,7 @@ def write_build(
         lineage=previous.lineage if previous is not None else None,
         map_frame=map_frame,
         observed_spans=part_spans(previous, declared) if state.deferred is not None else (),
+        recordings=recordings_after(previous, recording_entry(report.sketch, report.inputs)),
     )
     out = report.output
     write_map(out, arrays, manifest.to_dict(), lock=False)

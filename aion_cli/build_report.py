@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from aion_cli.build_plausibility import fast_people_warning
 from aion_cli.detection_feed import HEADING_SOURCES
+from aion_cli.engine.detection_sketch import DetectionSketch
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
 from aion_cli.listing import first_few
@@ -158,6 +159,9 @@ class BuildReport:
     #: per detection topic, its ``TopicCounts`` (not in the JSON): a parallel build adds its
     #: shards' up and warns of off stamps once, from the sums (``shard_reports``)
     stamp_counts: dict[str, Any] = field(default_factory=dict)
+    #: a sample of the detections fed to the map (not in the JSON; the manifest's
+    #: ``recordings``): whether they are a recording a map holds already (``recording_twins``)
+    sketch: DetectionSketch = field(default_factory=DetectionSketch)
 
     def mean_speed(self) -> float | None:
         """The mean speed of the detections with one (m/s); None when none has."""

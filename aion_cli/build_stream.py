@@ -36,7 +36,7 @@ from aion_cli.detection_feed import (
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.heading_hold import HeadingHold
 from aion_cli.engine.state import DROP_REASONS
-from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot
+from aion_cli.engine.types import F64, I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
 from aion_cli.log_times import check_after_open, other_clock_error, overlap_note
 from aion_cli.times_apart import apart_warnings, joined_times
@@ -274,7 +274,8 @@ class StreamStep:
         first = self.report.first_detection_ns is None  # the batch holds the first detections
         if first:
             self.report.first_detection_ns = int(batch.t_ns.min())
-        self._check_after_map(batch.t_ns, "detection", first)
+        self._check_after_map(batch.t_ns, "detection", first, batch.xyz)
+        self.report.sketch.add(batch.t_ns, batch.xyz)
         codes = np.empty(len(batch), np.int8)
         mapper.add_detections(batch, codes)
         self._check_clocks(mapper, batch.t_ns, codes)
@@ -302,16 +303,25 @@ class StreamStep:
         if clocks is not None:
             raise clocks
 
-    def _check_after_map(self, t_ns: I64, what: str, first: bool = False) -> None:
+    def _check_after_map(
+        self, t_ns: I64, what: str, first: bool = False, xyz: F64 | None = None
+    ) -> None:
         """A continued map's closed windows take no data (:func:`aion_cli.log_times.
-        check_after_open`); the ``first`` detections are checked for the map's data
-        (:func:`aion_cli.log_times.overlap_note`; a parallel build's parent checks its
-        shards')."""
+        check_after_open`; detections, ``xyz``, that repeat a recording the map holds are
+        refused as such: :func:`aion_cli.recording_twins.check_batch`); the ``first``
+        detections are checked for the map's data (:func:`aion_cli.log_times.overlap_note`;
+        a parallel build's parent checks its shards')."""
         if self._map_open is None or len(t_ns) == 0:
             return
         from aion_cli.engine.windows import window_ns
 
         delta = window_ns(self.previous.config.window_s) if self.previous else 1
+        if xyz is not None and int(t_ns.min()) < self._map_open * delta:
+            from aion_cli.recording_twins import check_batch
+
+            name, whole = self._continued_name(), self._whole_times
+            span = (whole.start_ns, whole.end_ns)
+            check_batch(self.previous_manifest, name, self._log_names(), span, t_ns, xyz)
         inputs = self.previous_manifest.inputs if self.previous_manifest else ()
         check_after_open(
             t_ns,

@@ -73,6 +73,10 @@ class Manifest:
     #: merge fills the declared windows between the part's logs and those before it with
     #: them, as one build of all the logs does; empty for other maps
     observed_spans: tuple[tuple[int, int], ...] = ()
+    #: per build of the map's logs (every build of every map merged into it): the logs'
+    #: names and sha256s and a sample of their detections (``recording_twins``: one
+    #: recording in two log files is refused when merged or continued); none in older maps
+    recordings: tuple[dict[str, Any], ...] = ()
     container: dict[str, Any] = field(default_factory=dict)
 
     def __repr__(self) -> str:
@@ -134,6 +138,7 @@ class Manifest:
             query_only=parse_query_only(d.get("query_only")),
             map_frame=str(d["map_frame"]) if isinstance(d.get("map_frame"), str) else None,
             observed_spans=_spans(d.get("observed_spans")),
+            recordings=_objects(d.get("recordings"), "recordings"),
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -160,12 +165,13 @@ class Manifest:
             {"observed_spans": [list(span) for span in self.observed_spans]}
             if self.observed_spans
             else {}
-        )
+        ) | ({"recordings": list(self.recordings)} if self.recordings else {})
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the
-        internal state table (a part map's ``part``: how many days it holds unscored)."""
-        out = {k: v for k, v in self.to_dict().items() if k != "state"}
+        internal state table nor the samples of the logs' detections (``recordings``; a
+        part map's ``part``: how many days it holds unscored)."""
+        out = {k: v for k, v in self.to_dict().items() if k not in ("state", "recordings")}
         deferred = self.state.get("deferred")
         if isinstance(deferred, dict):  # a part map (aion build --part): its days held
             days = deferred.get("days")
@@ -214,10 +220,15 @@ def parse_query_only(value: Any) -> dict[str, Any] | None:
 
 
 def _merged_from(value: Any) -> tuple[dict[str, Any], ...]:
+    return _objects(value, "merged_from")
+
+
+def _objects(value: Any, key: str) -> tuple[dict[str, Any], ...]:
+    """A list of objects (``merged_from``, ``recordings``); none when absent."""
     if value is None:
         return ()
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-        raise _bad("merged_from", "expected a list of objects")
+        raise _bad(key, "expected a list of objects")
     return tuple(value)
 
 

@@ -11,6 +11,11 @@ for byte: the manifest's member checksums say so without reading a state. Two re
 different people cannot give that (their sums would differ), so the merge refuses them; maps
 that hold no detection are left out (two robots that saw nobody along the same route may
 well hold the same empty entries).
+
+That holds only for two maps of nothing else over the very same span: a copy inside a
+larger merged map, or one observed over other spans or cut at another start, has other
+entries. Maps whose builds sampled their detections (the manifest's ``recordings``) are
+compared by those samples first (:mod:`aion_cli.recording_twins`), which catches them.
 """
 
 from __future__ import annotations
@@ -41,9 +46,14 @@ class TwinInput(Protocol):
 
 
 def check_same_recording(maps: Sequence[TwinInput]) -> None:
-    """:class:`~aion_cli.errors.InputError` naming two maps (and their logs) that hold the
-    same detections over the same time span (see the module docstring)."""
+    """:class:`~aion_cli.errors.InputError` naming two maps (and their logs) of which
+    builds sampled one recording (:func:`aion_cli.recording_twins.check_merge`), or, for
+    maps written before they were sampled, that hold the same detections over the same time
+    span (see the module docstring)."""
     from aion_cli.errors import InputError
+    from aion_cli.recording_twins import check_merge
+
+    check_merge(maps)
 
     seen: dict[tuple[object, ...], TwinInput] = {}
     for m in maps:

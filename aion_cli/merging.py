@@ -468,6 +468,7 @@ def _write(
         merged_from=tuple(m.file.to_dict() for m in maps),
         lineage=report.lineage,
         map_frame=common_frame([m.manifest.map_frame for m in maps]),
+        recordings=tuple(r for m in maps for r in m.manifest.recordings),  # recording_twins
     )
     write_map(report.output, arrays, manifest.to_dict(), lock=False)  # the caller holds the lock
     report.inputs = [

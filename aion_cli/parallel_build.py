@@ -170,11 +170,13 @@ class ParallelBuild:
         self.parts = [part for _, part, _ in shards]
         seeds, kd_trees, static_tf = _plan_streams(list(logs), self.build, shards, spans)
         fills = self._observed_fills(spans, window)
+        before = self.build.previous_manifest
+        recordings = before.recordings if before is not None else ()
         tasks = [
             ShardTask(
                 i, group, previous is not None or i > 0,
                 opts if fill is None else dataclasses.replace(opts, observed_fill=fill),
-                self.config, part, first, seed, static_tf,
+                self.config, part, first, seed, static_tf, recordings,
                 opens_map=previous is None and group == shards[0][0],
             )
             for i, ((group, part, first), seed, fill) in enumerate(

@@ -80,6 +80,7 @@ from aion_cli.log_twins import topic_twin_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap
 from aion_cli.provenance import DistinctLogs, distinct_logs
+from aion_cli.recording_twins import check_continued
 from aion_cli.stamp_warnings import sim_time_warning
 from aion_cli.tf_feed import (
     check_tf,
@@ -457,7 +458,11 @@ class _Build(StreamStep):
             self.report.warnings.append(sim)
 
     def _write(self, state: MapState, config: ModelConfig, inputs: tuple[InputLog, ...]) -> None:
-        """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock)."""
+        """The map file (:func:`aion_cli.build_output.write_build`; run() holds the lock),
+        unless its logs are a recording the continued map holds already."""
+        previous = self.previous_manifest
+        recordings = previous.recordings if previous is not None else ()
+        check_continued(recordings, self._continued_name(), self._log_names(), self.report.sketch)
         write_build(
             state, config, inputs, self.report, self.previous_manifest, self.opts.map_frame,
             self.opts.observed,

@@ -54,6 +54,9 @@ class ShardTask:
     yaw_seen: dict[str, float] = field(default_factory=dict)
     # the static transforms of all the build's logs (aion_cli.tf_feed.read_static_tf)
     static_tf: StaticTf = ()
+    # the continued map's recordings (aion_cli.recording_twins): a shard out of time order
+    # that repeats one of them is refused as such
+    recordings: tuple[dict[str, Any], ...] = ()
     # no map and no logs before the shard's logs (ShardStart.opens_map)
     opens_map: bool = False
 
@@ -269,6 +272,11 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         clocks = other_clock_error(_names(task.logs), start, open_start, stamped)
         if clocks is not None:  # the logs' clock from 0, the map's windows from stamps
             raise clocks
+        from aion_cli.recording_twins import check_continued
+
+        continued = task.opts.continue_from
+        name = continued.name if continued is not None else "the map"
+        check_continued(task.recordings, name, _names(task.logs), result.report.sketch)
         raise InputError(
             f"the messages of {_names(task.logs)} start at {utc_text(start)}, but the map has "
             f"already closed every window before {utc_text(open_start)}: logs must be added to a "

@@ -110,6 +110,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.graphs_read_by_changes += p.graphs_read_by_changes
         out.graphs_skipped_period += p.graphs_skipped_period
         out.tf_undecodable += p.tf_undecodable
+        out.sketch.merge(p.sketch)
         for topic, stats in p.by_topic.items():
             mine = out.by_topic.setdefault(topic, {})
             _add_nested(mine, stats)

@@ -45,6 +45,7 @@ STORED_KEYS = [
     "timezone",
     "families",
     "map_frame",  # since 2026-12-05: the frame the positions are in
+    "recordings",  # since 2026-12-07: each build's logs and a sample of their detections
     "members",
 ]
 CONTAINER_KEYS = ("format", "version", "creator", "created", "members")
@@ -66,9 +67,11 @@ def _logs(folder: Path) -> list[Path]:
 
 
 def _old_describe(path: Path) -> dict[str, Any]:
-    """What ``aion info MAP`` showed before the typed manifest."""
+    """What ``aion info MAP`` showed before the typed manifest (the samples of the logs'
+    detections, ``recordings``, written since, are not shown: kilobytes of base64)."""
     manifest = read_manifest(path)
-    return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in ("members", "state")}
+    hidden = ("members", "state", "recordings")
+    return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in hidden}
 
 
 @pytest.fixture(scope="module")
@@ -227,3 +230,21 @@ def test_a_part_maps_observed_spans_round_trip_and_a_damaged_value_is_a_corrupt_
     for bad in ([[1]], [["1", 2]], [[1.5, 2]], {"a": 1}, [[True, 2]]):
         with pytest.raises(MapCorruptError, match="observed_spans"):
             Manifest.from_dict({"state": {}, "observed_spans": bad})
+
+
+def test_recordings_round_trip_are_not_shown_and_a_damaged_value_is_a_corrupt_map() -> None:
+    """``recordings`` (each build's logs and a sample of their detections,
+    ``aion_cli.recording_twins``): read back as written, left out when empty and of what
+    ``aion info`` shows (kilobytes of samples per build), and a value that is not a list of
+    objects is a corrupt map (exit 2), not a crash."""
+    from aion_cli.errors import MapCorruptError
+
+    entry = {"logs": [{"name": "a.mcap", "sha256": "ab"}], "level": 0, "samples": ""}
+    typed = Manifest.from_dict({"state": {}, "recordings": [entry]})
+    assert typed.recordings == (entry,)
+    assert typed.to_dict()["recordings"] == [entry]
+    assert "recordings" not in typed.shown()
+    assert "recordings" not in Manifest.from_dict({"state": {}}).to_dict()
+    for bad in ({"a": 1}, [1], ["a"], "x"):
+        with pytest.raises(MapCorruptError, match="recordings"):
+            Manifest.from_dict({"state": {}, "recordings": bad})

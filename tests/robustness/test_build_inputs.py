@@ -86,7 +86,8 @@ def test_a_log_reaching_back_into_closed_windows_is_refused(tmp_path: Path) -> N
     build_json(first, "-o", target)
     overlap_open = write_log(tmp_path / "b.mcap", walk(600, start_s=1200))
     build_json(overlap_open, "--map", target)  # starts in the open window 2
-    early = write_log(tmp_path / "c.mcap", walk(1200, start_s=1100))
+    # another person (the same one at the same stamps would hold b.mcap whole: its copy)
+    early = write_log(tmp_path / "c.mcap", walk(1200, start_s=1100, xyz=(2.2, 0.1, 0.0)))
     fails(run("build", early, "--map", target), "logs must be added to a map in time order")
     assert [i["name"] for i in read_manifest(target)["inputs"]] == ["a.mcap", "b.mcap"]
 
@@ -102,7 +103,8 @@ def test_a_log_overlapping_the_maps_data_in_its_open_window_is_noted(tmp_path: P
     later = write_log(tmp_path / "later.mcap", walk(60, start_s=1200))
     clean = build_json(later, "--map", target, "-o", tmp_path / "clean.aion")
     assert not [n for n in clean["notes"] if "data ends" in n]
-    inside = write_log(tmp_path / "inside.mcap", walk(240, start_s=900))
+    # another person (the same one at the same stamps is a.mcap cut: refused as its copy)
+    inside = write_log(tmp_path / "inside.mcap", walk(240, start_s=900, xyz=(2.2, 0.1, 0.0)))
     # batches of 10 detections: the note is made once, from the first
     report = build_json(inside, "--map", target, "-o", tmp_path / "i.aion", "--batch-size", "10")
     noted = [n for n in report["notes"] if "data ends" in n]
