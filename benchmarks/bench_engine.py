@@ -157,6 +157,7 @@ def measure(n: int, windows: int, repeats: int) -> dict[str, Any]:
     bincount_s = best_of(lambda: np.bincount(flat, minlength=size), repeats)
     loop_rate = dict_loop_rate(data[0].select(np.arange(min(len(data[0]), BATCH))),
                                config.cell_size, config.bins)
+    sketch_s = best_of(lambda: sample_all(data), repeats)
     entries = st.entries
     return {
         "detections": n,
@@ -170,7 +171,21 @@ def measure(n: int, windows: int, repeats: int) -> dict[str, Any]:
         "vs_bincount": best / bincount_s,
         "dict_loop_per_s": loop_rate,
         "vs_dict_loop": (n / best) / loop_rate,
+        "sketch_seconds": sketch_s,
+        "sketch_vs_ingest": sketch_s / best,
     }
+
+
+def sample_all(data: list[DetectionBatch]) -> Any:
+    """What a build adds per batch beside the Mapper: the sample of its detections that tells
+    one recording in two log files (``engine.detection_sketch``, the manifest's
+    ``recordings``), timed against ``add_detections`` of the same batches."""
+    from aion_cli.engine.detection_sketch import DetectionSketch
+
+    sketch = DetectionSketch()
+    for b in data:
+        sketch.add(b.t_ns, b.xyz)
+    return sketch
 
 
 def run(sizes: tuple[int, ...] = (10**6, 10**7), repeats: int = 2,

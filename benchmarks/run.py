@@ -166,6 +166,9 @@ def summary(results: dict[str, list[dict[str, Any]]]) -> list[dict[str, Any]]:
             fmt_si(r["detections_per_s"], "det/s"),
             f"{r['vs_bincount']:.1f}x bincount time, {r['vs_dict_loop']:.0f}x dict loop",
             ">= 2 M det/s" if target else "", (r["detections_per_s"] >= 2e6) if target else None)
+        if "sketch_vs_ingest" in r:
+            add("engine", f"recording sample of the same {r['detections']:,} det",
+                f"{r['sketch_seconds']:.2f} s", f"{r['sketch_vs_ingest']:.2f}x add_detections")
     for r in results.get("memory", []):
         if "dense_cells" not in r:
             add("memory", "dense grid check: bytes/cell measured vs analytic",

@@ -66,6 +66,9 @@ def test_engine_and_queries_small() -> None:
     row = bench_engine.measure(5000, windows=2, repeats=1)
     assert row["detections"] == 5000
     assert row["bound_cells"] > 0  # the warm-up graph binds cells
+    sketch = bench_engine.sample_all(bench_engine.batches(5000, 2))
+    assert sketch.detections == 5000  # every detection of the batches sampled
+    assert row["sketch_vs_ingest"] > 0
     queries = bench_engine.run_queries(n_entries=300, export_nodes=50, plan=False, repeats=1,
                                        times=2)
     _rows_ok(queries)
