@@ -12,12 +12,15 @@ matplotlib and scipy are imported inside the functions, as everywhere in :mod:`a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from aion_cli.scene import Scene
+
+if TYPE_CHECKING:
+    from aion_cli.pictures.graph_ink import GraphInk
 
 F64 = npt.NDArray[np.float64]
 Color = tuple[float, float, float]
@@ -210,16 +213,24 @@ EDGES_AS_IMAGE = 5000
 per picture: as line paths in every panel, 10^5 edges cost seconds and tens of MB each."""
 
 
-def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | None:
+def mesh_footprint(
+    scene: Scene,
+    extent: Extent,
+    pixels: int,
+    ink: GraphInk | None = None,
+    dpi: float = 100.0,
+) -> Footprint | None:
     """The footprint of ``scene``'s mesh (triangles projected to x-y, :data:`MESH_GREY`) over
     ``extent``, ``pixels`` wide, with its place edges when they are more than
-    :data:`EDGES_AS_IMAGE` (:data:`EDGE_GREY` lines about a pixel wide); None with neither."""
+    :data:`EDGES_AS_IMAGE`, drawn with ``ink`` (:mod:`.graph_ink`; default: in full, grey
+    lines about a pixel wide) as a panel at ``dpi`` would draw them; None with neither."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.collections import LineCollection, PolyCollection
     from matplotlib.figure import Figure
 
-    from aion_cli.formats.scene_colours import EDGE_GREY
+    from aion_cli.pictures.graph_ink import FULL
 
+    ink = ink or FULL
     mesh = scene.mesh
     edges = len(scene.edges_xyz) > EDGES_AS_IMAGE
     faces = mesh is not None and len(mesh.faces) > 0
@@ -243,7 +254,12 @@ def mesh_footprint(scene: Scene, extent: Extent, pixels: int) -> Footprint | Non
         )
     if edges:
         ax.add_collection(
-            LineCollection(_arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.72)
+            LineCollection(
+                _arrays(scene.edges_xyz[:, :, :2]),
+                colors=[ink.edge_colour],
+                # points of this 100-dpi canvas: as wide in pixels as a panel's lines
+                linewidths=ink.edge_width * dpi / 100.0,
+            )
         )
     ax.set_xlim(extent.x0, extent.x1)
     ax.set_ylim(extent.y0, extent.y1)

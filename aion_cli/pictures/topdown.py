@@ -8,7 +8,8 @@ What is drawn, back to front:
   many);
 - **rooms**: the convex hull of each room's places (padded by one cell), dashed, with the
   room's label (or id) at the centroid of its places (up to :data:`MAX_ROOM_LABELS` rooms);
-- **edges**: the place edges as thin grey lines; **places** as small grey dots;
+- **edges**: the place edges as thin grey lines; **places** as small grey dots (lighter,
+  thinner and smaller where the places are drawn a few pixels apart: :mod:`.graph_ink`);
 - **cells**: an unbound hash cell as a δ×δ square coloured by its direction entropy, pale
   under its arrow (grey without flow, teal with flow but no heading: ``flow_colors``);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
@@ -49,7 +50,6 @@ import numpy.typing as npt
 from aion_cli.errors import InputError
 from aion_cli.formats.outputs import plain_text
 from aion_cli.formats.scene_colours import (
-    EDGE_GREY,
     NO_FLOW_GREY,
     busy_fraction,
     display_flow_scale,
@@ -83,6 +83,7 @@ from aion_cli.pictures.backdrop import (
     room_outlines,
 )
 from aion_cli.pictures.floors import by_level, levels_apart
+from aion_cli.pictures.graph_ink import FULL, GraphInk, graph_ink
 from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN, wrapped
 from aion_cli.pictures.layout import grid as page_grid
 from aion_cli.scene import Scene
@@ -204,6 +205,7 @@ def draw_topdown(
     footprint: Footprint | None = None,
     rooms: RoomOutlines | None = None,
     arrows: ArrowField | None = None,
+    graph: GraphInk = FULL,
 ) -> None:
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
     ``flow_scale``: the flow drawn at full arrow length (default: :func:`arrow_scale`'s);
@@ -212,7 +214,8 @@ def draw_topdown(
     ``label_size`` (points) for small panels;
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
-    the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry)."""
+    the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry); ``graph``: how
+    heavily the place edges and dots are drawn (:mod:`.graph_ink`; default: in full)."""
     from matplotlib.collections import LineCollection
 
     from aion_cli.pictures.ticks import FittingLocator
@@ -220,13 +223,18 @@ def draw_topdown(
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
     box = extent or scene_extent([scene], paths)
     if footprint is None:
-        footprint = mesh_footprint(scene, box, round(ax.get_window_extent().width))
+        footprint = mesh_footprint(
+            scene, box, round(ax.get_window_extent().width), graph, float(ax.figure.dpi)
+        )
     _draw_footprint(ax, footprint)
     _draw_rooms(ax, rooms if rooms is not None else room_outlines(scene), label_size)
     if len(scene.edges_xyz) and not (footprint is not None and footprint.edges):
         ax.add_collection(
             LineCollection(
-                _arrays(scene.edges_xyz[:, :, :2]), colors=[EDGE_GREY], linewidths=0.6, zorder=2
+                _arrays(scene.edges_xyz[:, :, :2]),
+                colors=[graph.edge_colour],
+                linewidths=graph.edge_width,
+                zorder=2,
             )
         )
     field = arrows if arrows is not None else arrow_field(scene)
@@ -247,7 +255,8 @@ def draw_topdown(
             rgba[:, 3] = UNDER_MERGED_ALPHA
         draw_cells(ax, scene.cells_xyz[:, :2], scene.cell_size, rgba, as_image=merged)
     if len(scene.places_xyz):
-        ax.scatter(*scene.places_xyz[:, :2].T, s=5, c=[NO_FLOW_GREY], linewidths=0, zorder=4)
+        ax.scatter(*scene.places_xyz[:, :2].T, s=graph.dot_size, c=[graph.dot_colour],
+                   linewidths=0, zorder=4)
     busy = busy_fraction(scene.node_flow, scale)
     has = busy > 0
     if merged:  # only the dots of flow no merged arrow carries: no heading (teal), no arrow
@@ -363,6 +372,7 @@ def topdown_figure(
     extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
     rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
     block = arrow_block(extent, width, min(s.cell_size for s in scenes), height)
+    ink = graph_ink(scenes, extent, width, height, dpi)  # places a few pixels apart: lighter
     fields = [arrow_field(s, block) for s in scenes]
     if block is None:
         arrows = arrow_scale(scenes)
@@ -393,7 +403,7 @@ def topdown_figure(
             ax.remove()
             continue
         if shared is None or not _same_geometry(shared[0], scenes[i]):
-            footprint = mesh_footprint(scenes[i], extent, round(width * dpi))
+            footprint = mesh_footprint(scenes[i], extent, round(width * dpi), ink, dpi)
             shared = (scenes[i], footprint, room_outlines(scenes[i]))
         draw_topdown(
             ax,
@@ -409,6 +419,7 @@ def topdown_figure(
             dot_size=12.0 if n == 1 else 5.0,
             label_size=7.0 if n == 1 else 5.5,
             arrows=fields[i],
+            graph=ink,
         )
         last_in_column = i + cols >= n
         ax.xaxis.set_tick_params(labelbottom=last_in_column)
