@@ -32,6 +32,10 @@ _FIXED_BLUE = "#2c6fbb"
 _MAX_DAY_ROWS = 120
 NO_HEADING_ROSE = "no heading:\npeople standing\nstill or untracked"
 """The text of the rose of an entry with flow but no direction (its histogram is empty)."""
+ROSES_CAPTION = (
+    "rings: share of the place's headings in that direction (same scale on every rose)"
+)
+"""The caption under the roses."""
 ROSE_TITLE_CHARS = 34
 """The longest room name a rose's title shows (about the rose's width at 9 points)."""
 RING_LABEL_LIFT_PT = 6.0
@@ -286,6 +290,8 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
     """A polar bar chart of the direction histogram of each of ``rows`` (bin b centred at
     -180 + (b + 0.5)·360/B degrees, counter-clockwise from +x, east at the right), the grid
     lines on the bins' edges."""
+    from aion_cli.pictures.layout import wrapped
+
     n = max(len(rows), 1)
     cols = min(n, 3)
     fig = _figure(3.2 * cols, 3.2 * ((n + cols - 1) // cols))
@@ -339,8 +345,8 @@ def roses_png(rows: Sequence[Busiest], bins: int, path: Path) -> Path:
         room = shortened(row.room, ROSE_TITLE_CHARS)
         title = rose_title(row.record) + (f"\n{room}" if room else "")
         ax.set_title(plain(title), fontsize=9)
-    fig.supxlabel("rings: share of the place's headings in that direction (same scale on "
-                  "every rose)", fontsize=8)
+    # broken to the page's width: under one rose (3.2 inches) the line ran past both edges
+    fig.supxlabel(wrapped([ROSES_CAPTION], fig.get_figwidth(), 8), fontsize=8)
     return _save(fig, path)
 
 

@@ -62,6 +62,26 @@ def test_rose_titles_are_inside_the_picture(tmp_path: Path, drawn: list[Any], n:
         assert box.x1 <= fig.bbox.x1, ax.get_title()
 
 
+@pytest.mark.parametrize("n", [1, 2, 3])
+def test_the_roses_caption_is_inside_the_picture(tmp_path: Path, drawn: list[Any], n: int) -> None:
+    """The caption under the roses is one line of 83 characters: under one rose (a busiest
+    list of one entry: a map of one hash cell) it ran past both edges of the 3.2-inch page,
+    "e of the place's headings ... (same scale on e". It is broken to the page's width, and
+    all of it is there."""
+    from aion_cli.report.content import Busiest
+
+    record = {"id": "c1", "kind": "cell", "x": 2.25, "y": 3.25, "direction_deg": 0.0,
+              "concentration": 0.8, "histogram": [0.1, 0, 0, 0, 0.9, 0, 0, 0]}
+    plots.roses_png([Busiest(record, "", "static")] * n, 8, tmp_path / "r.png")
+    fig = drawn[-1]
+    caption = fig._supxlabel
+    assert " ".join(caption.get_text().split()) == plots.ROSES_CAPTION
+    box = caption.get_window_extent(fig.canvas.get_renderer())
+    assert box.x0 >= 0
+    assert box.x1 <= fig.bbox.x1
+    assert box.y0 >= 0
+
+
 def test_rose_titles_with_long_room_names_stay_apart(tmp_path: Path, drawn: list[Any]) -> None:
     """A room named "R12 open-plan engineering workspace north" ran each rose's title into
     the next one's and past the picture's edges."""
