@@ -38,6 +38,21 @@ def fixed(value: float, digits: int, *, sign: bool = False) -> str:
     return text
 
 
+def significant(value: float, digits: int = 3) -> str:
+    """``value`` to ``digits`` significant digits, without an exponent, thousands separated:
+    ``0.974``, ``46.8``, ``10``, ``1,570`` (``:.3g`` wrote 1,570 detections a window as
+    ``1.57e+03``); a value that is 0 or not finite as ``:g`` writes it."""
+    v = float(value)
+    if v == 0 or not math.isfinite(v):
+        return f"{v:g}"
+    places = digits - 1 - math.floor(math.log10(abs(v)))
+    v = round(v, places)
+    text = f"{v:,.{max(places, 0)}f}"
+    if "." in text:  # trailing zeros left out, as :g leaves them: 10.0 reads 10
+        text = text.rstrip("0").rstrip(".")
+    return text
+
+
 def mean_spread(value: Any, digits: int = 2) -> str:
     """A ``(mean, spread)`` pair as ``0.25 ± 0.03``; the mean alone for a spread of exactly
     zero; ``--`` for None (no value)."""

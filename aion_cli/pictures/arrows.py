@@ -67,15 +67,20 @@ class ArrowScale:
     largest: float
 
     def legend(self, window_s: float) -> str:
+        """How lengths read, the flows to three significant digits (no exponent: a square's
+        busiest crowd read "1.57e+03 detections")."""
+        from aion_cli.number_text import significant
+
         per = f"detections per {window_s:g}-s window"
         if self.flow >= self.largest:
             return (
                 f"arrows: dominant direction, length proportional to flow (the longest: "
-                f"{self.flow:.3g} {per})"
+                f"{significant(self.flow)} {per})"
             )
         return (
-            f"arrows: dominant direction, length proportional to flow up to {self.flow:.3g} "
-            f"{per} (busier entries drawn that long; the largest {self.largest:.3g})"
+            f"arrows: dominant direction, length proportional to flow up to "
+            f"{significant(self.flow)} {per} (busier entries drawn that long; the largest "
+            f"{significant(self.largest)})"
         )
 
 

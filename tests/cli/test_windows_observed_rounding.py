@@ -56,3 +56,16 @@ def test_half_up() -> None:
     from aion_cli.number_text import half_up
 
     assert [half_up(v) for v in (0.5, 1.5, 2.5, 4.5, 4.49, -0.5, 3.0)] == [1, 2, 3, 5, 4, 0, 3]
+
+
+@pytest.mark.parametrize(
+    ("value", "text"),
+    [(0.974, "0.974"), (46.84, "46.8"), (10.0, "10"), (1567.7, "1,570"), (999.7, "1,000"),
+     (331_000.4, "331,000"), (0.0012345, "0.00123"), (0.0, "0"), (-2.5, "-2.5")],
+)
+def test_three_significant_digits_without_an_exponent(value: float, text: str) -> None:
+    """The pictures' legends give flows to three significant digits: ``:.3g`` wrote 1,570
+    as ``1.57e+03``."""
+    from aion_cli.number_text import significant
+
+    assert significant(value) == text

@@ -231,6 +231,26 @@ def test_the_arrow_scale_is_the_busiest_flow_unless_one_dwarfs_the_rest() -> Non
     assert pooled.flow == pytest.approx(np.quantile(np.r_[np.ones(29), 100.0], DISPLAY_QUANTILE))
 
 
+@pytest.mark.parametrize(
+    ("flows", "shown"),
+    [
+        (np.r_[np.ones(29), 1567.7], ["up to 1 detections", "the largest 1,570)"]),
+        (np.linspace(100.0, 1567.7, 30), ["(the longest: 1,570 detections per 600-s window)"]),
+        (np.linspace(0.1, 0.974, 30), ["(the longest: 0.974 detections per 600-s window)"]),
+    ],
+)
+def test_the_arrow_legend_writes_flows_without_an_exponent(
+    flows: np.ndarray, shown: list[str]
+) -> None:
+    """UCY's students003 (a crowded square) has 1,570 detections a window at its busiest
+    place: the legend read "the longest: 1.57e+03 detections per 600-s window". Flows are
+    written to three significant digits in plain figures, as below 1,000 they were."""
+    legend = arrow_scale([_many_cells(flows)]).legend(600.0)
+    assert "e+" not in legend
+    for text in shown:
+        assert text in legend, legend
+
+
 def test_a_heavy_tail_leaves_the_other_arrows_visible(tmp_path: Path) -> None:
     """With the busiest cell 100 times the others, scaled to the busiest their arrows would be
     1 % of full length (a dot); scaled to the 95th percentile they are full length."""
