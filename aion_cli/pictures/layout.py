@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import textwrap
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 
@@ -67,3 +68,47 @@ def wrapped(lines: Iterable[str], width_in: float, points: float) -> str:
     chars = max(int(width_in * 72.0 / (0.6 * points)), 20)  # DejaVu Sans: ~0.55 em a character
     parts = [part for line in lines if line for part in line.split("\n")]  # its own breaks kept
     return "\n".join(textwrap.fill(part, chars) if part else part for part in parts)
+
+
+SETTLE_ROUNDS = 4
+"""The most times :func:`settle` runs a figure's layout."""
+
+
+def settle(fig: Any, rounds: int = SETTLE_ROUNDS) -> None:
+    """Run the constrained layout of ``fig`` until its axes stop moving (at most ``rounds``
+    times). A map panel keeps x and y on one scale, and the first layout of a fresh figure
+    can leave too little room beside it: ETH's hotel (a tall map, its caption three lines)
+    had its "y (m)" cut at the page's left edge, 4 pixels past it; two more layouts gave it
+    the 5 pixels of margin every other picture has. A layout of 24 panels takes seconds, so
+    it is run again only for a picture whose text was cut (:func:`text_cut_off`)."""
+    engine = fig.get_layout_engine()
+    if engine is None:
+        return
+    before = [ax.get_position(original=True).bounds for ax in fig.axes]
+    for _ in range(rounds):
+        engine.execute(fig)
+        after = [ax.get_position(original=True).bounds for ax in fig.axes]
+        if np.allclose(after, before, rtol=0.0, atol=1e-4):
+            return
+        before = after
+
+
+def text_cut_off(fig: Any) -> bool:
+    """Whether any text of the drawn ``fig`` (titles, axis labels, tick labels, the caption)
+    reaches past the page's edges (half a pixel of rounding allowed)."""
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    texts = [getattr(fig, "_suptitle", None), getattr(fig, "_supxlabel", None)]
+    for ax in fig.axes:
+        texts += [ax.title, ax.xaxis.label, ax.yaxis.label]
+        for axis in (ax.xaxis, ax.yaxis):  # the labels of the ticks in view: those drawn
+            lo, hi = sorted(axis.get_view_interval())
+            texts += [label for loc, label in zip(axis.get_ticklocs(), axis.get_ticklabels(),
+                                                  strict=False) if lo <= loc <= hi]
+    for text in texts:
+        if text is None or not text.get_visible() or not text.get_text():
+            continue
+        box = text.get_window_extent(renderer)
+        if box.x0 < -0.5 or box.y0 < -0.5 or box.x1 > page.x1 + 0.5 or box.y1 > page.y1 + 0.5:
+            return True
+    return False

@@ -62,12 +62,18 @@ def check_png_target(out: Path, option: str = "-o") -> None:
 
 
 def save_png(fig: Any, out: Path, option: str = "-o") -> Path:
-    """Write the matplotlib figure ``fig`` to ``out`` atomically (checked first)."""
+    """Write the matplotlib figure ``fig`` to ``out`` atomically (checked first); drawn
+    again after its layout is settled when text was cut at the page's edges
+    (:func:`.layout.settle`)."""
     from aion_cli.formats.outputs import Staged, cannot_write
+    from aion_cli.pictures.layout import settle, text_cut_off
 
     check_png_target(out, option)
     with cannot_write(out), Staged(out) as staged:
         save_marked_png(fig, staged.path, dpi=fig.dpi, facecolor="white")
+        if text_cut_off(fig):  # the first layout left too little room: settled, drawn again
+            settle(fig)
+            save_marked_png(fig, staged.path, dpi=fig.dpi, facecolor="white")
     return out
 
 

@@ -154,3 +154,41 @@ def test_only_aion_s_own_software_text_marks_a_picture(tmp_path: Path) -> None:
     ours = tmp_path / "ours.png"
     save_png(_figure(), ours)
     assert is_aion_png(ours)
+
+
+def _tall_map_with_a_long_caption() -> object:
+    """ETH's hotel in synthetic form: hash cells over 8 m x 15 m (a tall map), one cell 100
+    times as busy as the rest and five with flow but no heading: a three-line caption."""
+    import numpy as np
+
+    from tests.pictures.pixels import cells_only_scene
+
+    xs, ys = np.arange(-3.25, 4.3, 0.5), np.arange(-10.25, 4.3, 0.5)
+    xy = np.array([(x, y) for x in xs for y in ys])
+    n = len(xy)
+    flow, angle, entropy = np.ones(n), np.zeros(n), np.full(n, 0.5)
+    flow[0] = 100.0
+    angle[1:6] = entropy[1:6] = np.nan
+    return topdown_figure([cells_only_scene(xy, flow, angle, entropy)], ["t"],
+                          suptitle="hotel.aion")
+
+
+def test_a_label_cut_by_the_first_layout_is_drawn_again_whole(tmp_path: Path) -> None:
+    """The first layout of the hotel's picture left its "y (m)" 4 pixels past the page's
+    left edge (matplotlib's constrained layout with a panel of fixed aspect: more layouts
+    settle it). A picture whose text is cut is laid out again and redrawn; the label is on
+    the page, with the margin of every other picture."""
+    from typing import Any
+
+    from aion_cli.pictures.layout import text_cut_off
+
+    fresh: Any = _tall_map_with_a_long_caption()
+    fresh.savefig(tmp_path / "plain.png", dpi=fresh.dpi)
+    assert text_cut_off(fresh)  # the case in question: a plain save cuts it
+    fig: Any = _tall_map_with_a_long_caption()
+    save_png(fig, tmp_path / "hotel.png")
+    assert not text_cut_off(fig)
+    (ax,) = [a for a in fig.axes if a.get_title() == "t"]
+    label = ax.yaxis.label.get_window_extent(fig.canvas.get_renderer())
+    assert label.x0 >= 4.0
+    assert (tmp_path / "hotel.png").read_bytes().startswith(PNG_MAGIC)
