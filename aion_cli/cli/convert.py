@@ -16,7 +16,7 @@ from aion_cli.cli.convert_checks import (
     check_tracks_input,
     container_for,
 )
-from aion_cli.cli.output import AionCommand, counted, markup_safe
+from aion_cli.cli.output import AionCommand, AnyCase, counted, markup_safe
 from aion_cli.errors import path_word
 
 EPILOG = """\b
@@ -108,10 +108,7 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
 @click.option(
     "--message-type",
     "msgtype",
-    type=click.Choice(
-        ["spencer_tracking_msgs/msg/TrackedPersons", "geometry_msgs/msg/PoseArray"],
-        case_sensitive=False,
-    ),
+    type=AnyCase(["spencer_tracking_msgs/msg/TrackedPersons", "geometry_msgs/msg/PoseArray"]),
     default="spencer_tracking_msgs/msg/TrackedPersons",
     show_default=True,
     help="Message type the detections are written as.",

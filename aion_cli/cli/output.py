@@ -53,6 +53,22 @@ def markup_safe(value: object) -> str:
     return escape(printable(value))
 
 
+class AnyCase(click.Choice):
+    """Choices taken in any case and named as listed: click 8.2 on shows a case-insensitive
+    choice casefolded in ``--help`` and in its error (``geometry_msgs/msg/posearray``, a
+    type no log holds), where the words have a case of their own."""
+
+    def __init__(self, choices: Sequence[str]) -> None:
+        super().__init__(list(choices), case_sensitive=False)
+
+    def get_metavar(self, param: click.Parameter, ctx: click.Context | None = None) -> str:
+        return "[" + "|".join(map(str, self.choices)) + "]"
+
+    def get_invalid_choice_message(self, value: Any, ctx: click.Context | None) -> str:
+        listed = ", ".join(repr(str(choice)) for choice in self.choices)
+        return f"{value!r} is not one of {listed}."
+
+
 def format_option(choices: Sequence[str] = FORMATS, default: str = "table") -> Any:
     """The ``--format`` option shared by the query commands."""
     machine = " or ".join(c.upper() for c in choices if c != "table")

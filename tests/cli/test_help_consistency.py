@@ -105,6 +105,32 @@ def test_every_choice_takes_any_case() -> None:
     assert refused == []
 
 
+def test_every_choice_is_named_as_listed(tmp_path: Path) -> None:
+    """A choice taken in any case is still shown and named in its own case: click 8.2 on
+    printed ``--message-type [spencer_tracking_msgs/msg/trackedpersons|geometry_msgs/msg/
+    posearray]``, types no log holds, in the help and in the error for a word not listed."""
+    from tests.cli.conftest import run
+
+    shown = {
+        (command, option.opts[0]): (_metavar(option, ctx).rsplit(" ", 1)[-1], option.type.choices)
+        for command, option, ctx in _options()
+        if isinstance(option.type, click.Choice) and option.metavar is None
+    }
+    assert ("convert", "--message-type") in shown
+    wrong = {
+        where: metavar for where, (metavar, choices) in shown.items()
+        if metavar != "[" + "|".join(map(str, choices)) + "]"
+    }
+    assert wrong == {}
+    tracks = tmp_path / "t.csv"
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n")
+    result = run("convert", tracks, "-o", tmp_path / "t.mcap", "--message-type", "posearray")
+    assert result.exit_code == 2
+    assert ("'posearray' is not one of 'spencer_tracking_msgs/msg/TrackedPersons', "
+            "'geometry_msgs/msg/PoseArray'.") in result.stderr
+    assert not (tmp_path / "t.mcap").exists()
+
+
 def test_readme_commands_can_be_pasted_into_a_shell() -> None:
     """A README example is a shell line: its comment starts with ``#`` (``aion plan ...
     --to "office 1"   room to room`` passed 'room to room, ...' to aion, which refused the
