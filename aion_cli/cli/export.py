@@ -74,7 +74,7 @@ time (the fields of `aion predict`) in its node metadata under "aion".
 
 @click.command(
     "export",
-    short_help="Write PLY/PCD/MCAP scenes, PNG pictures and CSV/JSON tables.",
+    short_help="Write scenes (PLY/PCD/MCAP), pictures, the 4D scene graph, tables.",
     cls=AionCommand,
     epilog=EPILOG,
     advanced=("tz",),
@@ -146,7 +146,8 @@ def command(
     path_to: str | None,
     force: bool,
 ) -> None:
-    """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG) and tables (CSV/JSON)."""
+    """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG), the 4D scene graph
+    (a spark_dsg file) and tables (CSV/JSON)."""
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, note, progress, warn
     from aion_cli.cli.plan import snapped_text

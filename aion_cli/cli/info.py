@@ -117,7 +117,7 @@ def _unused_pointer(report: dict[str, Any]) -> str:
     return ", or ".join(parts)
 
 
-@click.command("info", short_help="What is in logs (or a map), what aion uses.", epilog=EPILOG)
+@click.command("info", short_help="What is in logs (maps, graphs), what aion uses.", epilog=EPILOG)
 @click.argument("logs", nargs=-1, required=True, type=AionPath(path_type=Path))
 @log_format_option
 @detections_mapping_option
