@@ -20,16 +20,17 @@ Examples:
   aion merge part.aion -o map.aion          one part map (build --part): its days scored
 
 \b
-The maps must share their model parameters and time zone, and no log may be in two of them,
-nor one recording in two log files (a log is never counted twice). They are merged in time
-order: counts, speed sums and the temporal model add (the same as building from all the logs
-at once for maps of one scene-graph session, but for the approximations the notes name).
-Maps from different scene-graph sessions (node ids reused at unrelated positions; --lineage
-auto finds them from the graphs) first release every place's state to the hash cells at its
-position; the merged cells then bind to the target graph (--graph FILE, else the newest
-map's), its places taken as stable at the merge time. The output lists every input log and
-the maps it was merged from; an existing map at -o is replaced atomically, anything else is
-refused.
+The maps must share their model parameters (the planner's plan_* may differ: the merged map
+plans with the first map's, a note names the others) and time zone, and no log may be in two
+of them, nor one recording in two log files (a log is never counted twice). They are merged
+in time order: counts, speed sums and the temporal model add (the same as building from all
+the logs at once for maps of one scene-graph session, but for the approximations the notes
+name). Maps from different scene-graph sessions (node ids reused at unrelated positions;
+--lineage auto finds them from the graphs) first release every place's state to the hash
+cells at its position; the merged cells then bind to the target graph (--graph FILE, else
+the newest map's), its places taken as stable at the merge time. The output lists every
+input log and the maps it was merged from; an existing map at -o is replaced atomically,
+anything else is refused.
 
 \b
 JSON keys (--format json): map, map_bytes, inputs[{path, name, size, sha256, start_ns,
