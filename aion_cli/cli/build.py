@@ -226,9 +226,9 @@ class _RichProgress:
     "--tz",
     "timezone",
     metavar="ZONE",
-    help="Time zone of the place mapped (IANA name, UTC or an offset such as +09:00): the "
-    "local clock of the map's days and daily profiles, and the default of predict / plan / "
-    "export [default: UTC; a continued map keeps its own].",
+    help="Time zone of the place mapped (IANA name, UTC, an offset such as +09:00, or local: "
+    "the machine's): the local clock of the map's days and daily profiles, and the default of "
+    "predict / plan / export [default: UTC; a continued map keeps its own].",
 )
 @click.option(
     "--workers",

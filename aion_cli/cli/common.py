@@ -91,7 +91,7 @@ def tz_option(func: F) -> F:
     return click.option(
         "--tz",
         metavar="ZONE",
-        help="Time zone for times without an offset: IANA name, UTC, +01:00 "
+        help="Time zone for times without an offset: IANA name, UTC, +01:00, local (the machine's) "
         "[default: the map's zone: UTC unless aion build --tz gave another].",
     )(func)
 

@@ -154,8 +154,8 @@ LAYOUTS = ("canonical", "atc", "thor", "thor-magni", "eth", "ucy", "lincoln", "e
     "--tz",
     metavar="ZONE",
     help="Time zone for --observed / --start / --date times without an offset: IANA name, UTC, "
-    "+01:00 [default: UTC, as aion build reads --observed]. Written into the log: aion build "
-    "follows it without --tz.",
+    "+01:00, local (the machine's) [default: UTC, as aion build reads --observed]. Written "
+    "into the log: aion build follows it without --tz.",
 )
 @click.option("--force", is_flag=True, help="Overwrite the output if it exists.")
 @quiet_option

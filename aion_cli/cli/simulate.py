@@ -244,7 +244,8 @@ def _event_counts(r: SceneResult) -> str:
     metavar="ZONE",
     default=None,
     help="Local time zone of the scene: an IANA name (Europe/London: people keep their "
-    "hours across daylight-saving changes) or an offset (+09:00). Build with the same --tz "
+    "hours across daylight-saving changes), an offset (+09:00) or local (the machine's). "
+    "Build with the same --tz "
     "[default: UTC, or --utc-offset].",
 )
 @click.option(

@@ -79,6 +79,19 @@ def test_every_time_option_says_what_leaving_it_out_means() -> None:
             assert "default: " in record[1], (command, record)
 
 
+def test_every_tz_option_offers_the_machines_zone() -> None:
+    """README: ``--tz local`` is the machine's zone "in every command that takes --tz", and
+    every such command takes it; only info's help said so."""
+    helps = {
+        command: record[1] for command, option, ctx in _options() if "--tz" in option.opts
+        for record in [option.get_help_record(ctx)] if record is not None
+    }
+    assert {"build", "predict", "plan", "export", "report", "convert", "simulate", "info"} <= set(
+        helps
+    )
+    assert {command for command, text in helps.items() if "local" not in text} == set()
+
+
 def test_frames_and_files_are_named_as_such() -> None:
     """The frame options read FRAME, model parameters FILE, data folders DIR, a count N."""
     expected = {"--map-frame": "FRAME", "--base-frame": "FRAME", "--config": "FILE",
