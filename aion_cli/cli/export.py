@@ -40,8 +40,8 @@ Examples:
   aion export office.aion --time "2026-11-23 08:30" --format dsg -o office-4d.json
 
 \b
-Writes into OUT: the scene (nodes as spheres sized by flow and coloured by entropy, blue low
-to red high, arrows along the dominant direction, flat squares for hash cells, edges as
+Writes into the -o folder: the scene (nodes as spheres sized by flow and coloured by entropy,
+blue low to red high, arrows along the dominant direction, flat squares for hash cells, edges as
 lines, the scene graph's mesh, a planned path) as PLY or PCD (their headers' comments give
 the time and hour_observed, as the JSON does), plus entries.csv and entries.json with the same
 fields as `aion predict`. --from/--to/--step writes one
@@ -128,8 +128,8 @@ time (the fields of `aion predict`) in its node metadata under "aion".
 @click.option(
     "--force",
     is_flag=True,
-    help="Also replace aion's files in OUT that no export into it wrote (a scene 'aion plan "
-    "--export' saved there, an export's file changed since); never other files.",
+    help="Also replace aion's files in the -o folder that no export into it wrote (a scene "
+    "'aion plan --export' saved there, an export's file changed since); never other files.",
 )
 @quiet_option
 def command(

@@ -16,15 +16,15 @@ Examples:
   aion report office.aion -o report/ --time "2026-01-12 08:40"   busiest places at a time
 
 \b
-Writes into OUT: index.html (one page, inline CSS, no script, no external address: send the
-folder to a colleague) and the PNG pictures it shows: map.png (the map from above, as
+Writes into the -o folder: index.html (one page, inline CSS, no script, no external address:
+send the folder to a colleague) and the PNG pictures it shows: map.png (the map from above, as
 aion export --format png draws it), observed.png (when the map was observed),
 activity_day_weekday.png, activity_day_weekend.png and activity_week.png (predicted flow
 per room over a day every 15 minutes and over a week every hour: the first week after the
 observations, or the week of --time), roses.png (direction roses of the busiest places).
 The page holds what the map holds (counts, inputs, families, as aion info shows them) and
 the busiest places as aion predict --top lists them (as observed, or at --time). Files
-already in OUT that the report does not write are kept.
+already in the folder that the report does not write are kept.
 """
 
 
