@@ -15,7 +15,8 @@ centred at -180 + (b + 0.5)·360/B degrees), ``speed_per_bin`` (m/s per bin, JSO
 directions: static, shape, profile, fremen1..4; "historical" for what was observed, "none" for
 a place without data, "aggregate" for rooms), ``flow_p10`` / ``flow_p90`` (10th and 90th
 percentile of the number of detections in a window, from the predictive negative binomial;
-null historically).
+a room's or building's with its places' covariance, ``engine.temporal.totals``; null
+historically).
 
 The CLI (``aion_cli.cli.predict``, ``cli.export``) and the Python API format these records;
 nothing here knows click or rich.

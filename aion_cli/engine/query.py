@@ -73,6 +73,10 @@ class EntryTable:
     heading_sin: F64 | None = None
     bin_cos: F64 | None = None
     bin_sin: F64 | None = None
+    total_dispersion: float = 1.0
+    """How bursty the map's window totals are (φ_T, ``Predictor.phi_total``): what
+    :func:`aggregate_table` widens a sum of places' variances by (1: the places' counts
+    taken as independent, as in a historical table, which has no spread)."""
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -165,13 +169,18 @@ def _entry_table(
         table,
         bin_cos=np.concatenate([bin_cos, np.zeros((extra, state.bins))]),
         bin_sin=np.concatenate([bin_sin, np.zeros((extra, state.bins))]),
+        total_dispersion=predictor.phi_total,
     )
 
 
 def aggregate_table(
     table: EntryTable, graph: GraphSnapshot, level: Literal["rooms", "buildings"]
 ) -> EntryTable:
-    """Sum the node rows of ``table`` into the graph's rooms (or buildings, via rooms)."""
+    """Sum the node rows of ``table`` into the graph's rooms (or buildings, via rooms). A
+    group's ``flow_var`` is its places' variances plus their covariance, from how bursty the
+    map's window totals are (``table.total_dispersion``, the map's total flow the window's
+    reference: :func:`~aion_cli.engine.temporal.totals.sum_variance`), never less than the
+    independent sum; the flows are plain sums."""
     if level not in ("rooms", "buildings"):
         raise ValueError(f"level must be 'rooms' or 'buildings', got {level!r}")
     parent = parent_ids(graph.places.ids, graph.places.parent, table.node_id)
@@ -191,6 +200,8 @@ def aggregate_table(
     speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 : 3 * b + 1]
     historical = bool(np.all(np.isnan(table.flow_var)))
     flow_var = np.full(len(ids), np.nan) if historical else sums[:, 3 * b + 1]
+    if not historical and table.total_dispersion > 1.0 and len(ids):
+        flow_var = _grouped_variance(table, parent, ids)
     heading_cos = sums[:, 3 * b + 2 : 4 * b + 2] if headings else None
     heading_sin = sums[:, 4 * b + 2 : 5 * b + 2] if headings else None
     xyz = np.full((len(ids), 3), np.nan)
@@ -216,6 +227,19 @@ def aggregate_table(
         direction_family=np.full(len(ids), "aggregate"),
         heading_cos=heading_cos,
         heading_sin=heading_sin,
+    )
+
+
+def _grouped_variance(table: EntryTable, parent: U64, ids: U64) -> F64:
+    """The variance of each group's (``ids``, sorted) summed count, its places (rows whose
+    ``parent`` is the group) correlated as :mod:`~aion_cli.engine.temporal.totals` says."""
+    from aion_cli.engine.temporal.totals import sum_variance
+
+    member = parent != 0
+    group = np.searchsorted(ids, parent[member])
+    return sum_variance(
+        table.flow[member], table.flow_var[member], group, len(ids),
+        float(np.nansum(table.flow)), table.total_dispersion,
     )
 
 

@@ -127,9 +127,15 @@ def spread_of(
     ``starts``: the windows' starts, UNIX and on the map's wall clock, whose local hours
     group them as ``metrics.hourly_activity`` does.
 
-    An hour's band is that of the sum of its pairs' counts with the sum of their means and
-    variances, as for a room (``query.aggregate_table``): the places' counts taken as
-    independent. Detections at no map place count toward no pair, nor toward an hour."""
+    An hour's band is that of the sum of its pairs' counts, mean the sum of their means and
+    variance that of a sum of places in each window, as for a room
+    (``query.aggregate_table``): the places' variances plus their covariance from how bursty
+    the map's window totals are (:func:`~aion_cli.engine.temporal.totals.sum_variance`, the
+    window's reference total the sum of its pairs' means: what the test observed then),
+    summed over the hour's windows. Detections at no map place count toward no pair, nor
+    toward an hour."""
+    from aion_cli.engine.temporal.totals import sum_variance
+
     place, window, n_windows = pairs
     expected, variance = forecast
     counts = pair_counts(place, window, n_windows, entry_positions(state, rows, xyz),
@@ -138,18 +144,24 @@ def spread_of(
     unix, local = starts
     hour_of = unix - np.mod(local, HOUR_NS)
     _hours, hour = np.unique(hour_of, return_inverse=True)
-    pair_hour = hour.reshape(-1)[window[judged]]
+    hour = hour.reshape(-1)
     n_hours = int(hour.max()) + 1 if hour.size else 0
+    w = window[judged]
+    per_window: F64 = np.bincount(w, expected[judged], minlength=n_windows).astype(np.float64)
+    window_var = sum_variance(expected[judged], variance[judged], w, n_windows, per_window,
+                              state.predictor()[1].phi_total)
 
     def per_hour(values: F64) -> F64:
-        out: F64 = np.bincount(pair_hour, values[judged], minlength=n_hours).astype(np.float64)
+        out: F64 = np.bincount(hour, values, minlength=n_hours).astype(np.float64)
         return out
 
-    watched = np.bincount(pair_hour, minlength=n_hours) > 0
+    watched = np.bincount(hour[w], minlength=n_hours) > 0
+    window_counts: F64 = np.bincount(w, counts[judged], minlength=n_windows).astype(np.float64)
     return {
         "place_windows": spread_coverage(counts, expected, variance),
         "hours": spread_coverage(
-            per_hour(counts)[watched], per_hour(expected)[watched], per_hour(variance)[watched]
+            per_hour(window_counts)[watched], per_hour(per_window)[watched],
+            per_hour(window_var)[watched],
         ),
     }
 
@@ -167,7 +179,8 @@ def spread_note(spread: dict[str, dict[str, Any]]) -> str | None:
     )
     if hours.get("counts"):
         line += (
-            f"; of the {hours['counts']:,} hours' totals, places summed as independent, "
+            f"; of the {hours['counts']:,} hours' totals, places summed as the map's "
+            "window totals vary, "
             f"{hours['inside']:.1%} (PIT {hours['pit']:.3f})"
         )
     return line

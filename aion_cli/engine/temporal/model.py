@@ -30,6 +30,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
 from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
 from aion_cli.engine.temporal.scoring import close_day
+from aion_cli.engine.temporal.shape_prior import overdispersion
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import window_centre_ns
 
@@ -240,6 +241,9 @@ class Predictor:
     map_family: str | None
     extrapolated: BoolA
     phi_static: F64
+    phi_total: float = 1.0
+    """How bursty the map's window totals are (``shape_prior.overdispersion``): the spread
+    of a sum of places (:mod:`~aion_cli.engine.temporal.totals`)."""
 
     @classmethod
     def of(
@@ -271,7 +275,8 @@ class Predictor:
         seen = np.tile(hours, params.n_profile // per_day)
         extrapolated = ~seen if seen.any() else seen  # nothing observed: nothing to fall to
         return cls(
-            params, fc, flow_choice, dir_choice, phi, map_family, extrapolated, phi_static
+            params, fc, flow_choice, dir_choice, phi, map_family, extrapolated, phi_static,
+            overdispersion(state.window_chi2),
         )
 
     def _flow_choice(self, e: I64, h: I64) -> I64:
