@@ -154,12 +154,20 @@ def split_groups(
     notes = []
     for group, found, count in zip(groups, times, counts, strict=True):
         want = max(1, round(target * count / total)) if total else 1
-        cuts, changing = (
+        cuts, changing, slow = (
             _group_cuts(group, opts, found, window_ns, want, tolerance)
             if found and want > 1
-            else ([], None)
+            else ([], None, [])
         )
         names = ", ".join(p.name for p in group[:3]) + (", ..." if len(group) > 3 else "")
+        if slow and not cuts and changing is None and explain:
+            notes.append(
+                f"{names}: not cut into time shards: no pause in the detection messages, and "
+                f"{slow[0].name}{' (and others)' if len(slow) > 1 else ''} has no chunk index "
+                "(truncated, or written without one), so a quiet moment cannot be found by "
+                "decoding a few seconds; built in sequence (aion info LOG says whether a log "
+                "is truncated)"
+            )
         if changing is not None and explain:
             notes.append(
                 f"{names}: not cut into time shards: {'their' if len(group) > 1 else 'its'} "
@@ -183,19 +191,23 @@ def _group_cuts(
     window_ns: int,
     parts: int,
     tolerance: float,
-) -> tuple[list[int], tuple[int, int] | None]:
+) -> tuple[list[int], tuple[int, int] | None, list[Path]]:
     """:func:`cut_times` of one group, probing by decoding where its logs can be read a few
     seconds at a time (:meth:`formats.logs.LogSet.skips_by_time`); none, and the part whose
-    scene graph changes, where one does (:func:`aion_cli.shard_graphs.changing_part`)."""
+    scene graph changes, where one does (:func:`aion_cli.shard_graphs.changing_part`); and
+    the logs that kept it from probing (read from their start), for the note that says why a
+    group of logs with an empty tracker message every few seconds was not cut."""
     from aion_cli.formats.logs import open_logs
     from aion_cli.shard_graphs import changing_part
 
     with open_logs(list(group), opts.log_format) as logset:
-        cuts = cut_times(times, window_ns, parts, _decoded_quiet(logset, opts))
+        probe = _decoded_quiet(logset, opts)
+        slow = logset.read_from_start() if probe is None else []
+        cuts = cut_times(times, window_ns, parts, probe)
         changing = (
             changing_part(logset, opts, times.graphs, parts_of(cuts), tolerance) if cuts else None
         )
-    return ([], changing) if changing is not None else (cuts, None)
+    return ([], changing, slow) if changing is not None else (cuts, None, slow)
 
 
 def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | None:

@@ -264,7 +264,12 @@ class LogSet:
         """Whether ``messages(topics, between)`` reads only the files' parts near that time
         (every file an indexed MCAP read by chunk), so that reading a few seconds here and
         there costs a few chunks, not the files up to there."""
-        return all(source.skips_by_time() for source in self._sources)
+        return not self.read_from_start()
+
+    def read_from_start(self) -> list[Path]:
+        """The files :meth:`skips_by_time` fails for: read from their start whatever time is
+        wanted (an MCAP without its chunk index, such as a truncated one), for notes naming them."""
+        return [source.file.path for source in self._sources if not source.skips_by_time()]
 
     def index_times(self, topics: Iterable[str], vouch: bool = True) -> StreamTimes | None:
         """The log times :meth:`messages` would yield on ``topics``, in its order, read from

@@ -61,14 +61,22 @@ def test_a_tracker_publishing_empty_messages_is_cut_where_decoding_finds_nobody(
 
 
 def test_quiet_moments_only_decoding_finds_are_not_searched_where_reading_is_slow(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path,
 ) -> None:
-    # a log read from its start for every moment probed (an MCAP without a chunk index, say)
-    # is not probed: built in one process, and the build says why
-    from aion_cli.formats.logs import LogSet
-
-    monkeypatch.setattr(LogSet, "skips_by_time", lambda self: False)
+    # a log read from its start for every moment probed (an MCAP without its chunk index:
+    # here a truncated copy, as a robot that lost power leaves it) is not probed: built in
+    # one process, and the build says why, naming that log (it used to say only that there
+    # was no quiet moment, which the intact log alone has, as the first test shows)
     log = _fixed_rate(tmp_path / "log.mcap")
-    report = build_logs([log], tmp_path / "par.aion", 2)
+    data = log.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) * 9 // 10])
+    report = build_logs([cut], tmp_path / "par.aion", 2)
     assert report.workers == []
-    assert any("no quiet moment" in n for n in report.notes)
+    reason = [n for n in report.notes if "not cut into time shards" in n]
+    assert len(reason) == 1, report.notes
+    assert reason[0].startswith("cut.mcap: not cut into time shards: no pause")
+    assert "cut.mcap has no chunk index (truncated" in reason[0]
+    assert not any("no quiet moment" in n for n in report.notes)
+    intact = build_logs([log], tmp_path / "intact.aion", 2)
+    assert len(intact.workers) == 2  # the log itself is cut where decoding finds nobody
