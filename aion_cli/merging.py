@@ -258,9 +258,11 @@ def _check_logs(maps: list[_Input]) -> tuple[InputLog, ...]:
         for log in m.manifest.inputs:
             seen = owner.get(log.sha256)
             if seen is not None and seen[0] is not m:
+                first = seen[1].name  # a copy under another name: say both names
+                copy = "" if log.name == first else f"; a copy named {log.name} in {m.name}"
                 raise InputError(
-                    f"the log {log.name} (sha256 {log.sha256[:12]}) is in both {seen[0].name} "
-                    f"and {m.name}: a log is never counted twice",
+                    f"the log {first} (sha256 {log.sha256[:12]}{copy}) is in both "
+                    f"{seen[0].name} and {m.name}: a log is never counted twice",
                     hint="merge maps built from different logs (aion info MAP lists a map's "
                     "logs), or build one map from all the logs",
                 )

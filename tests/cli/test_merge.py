@@ -5,6 +5,7 @@ graph of another session (the same ids at other places), and every bad input."""
 from __future__ import annotations
 
 import hashlib
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -222,6 +223,23 @@ def test_a_log_in_both_maps_is_refused(days: Days, tmp_path: Path) -> None:
         result.stderr, "monday.mcap", "monday.aion", "both.aion", "never counted twice"
     )
     assert not out.exists()
+
+
+def test_a_copy_of_a_log_under_another_name_is_named_both_ways(
+    days: Days, tmp_path: Path
+) -> None:
+    # a robot's log copied under another name (from another machine, say) and built into a
+    # second map: the error names the log as each map has it, not only the later name
+    copy = tmp_path / "robot1-monday.mcap"
+    shutil.copyfile(days.logs[0], copy)
+    copied = tmp_path / "copied.aion"
+    assert run("build", copy, "-o", copied, "-q").exit_code == 0
+    result = run("merge", days.maps[0], copied, "-o", tmp_path / "out.aion")
+    assert result.exit_code == 2
+    assert_one_line_error(
+        result.stderr, "the log monday.mcap (sha256 ", "a copy named robot1-monday.mcap in "
+        "copied.aion) is in both monday.aion and copied.aion", "never counted twice"
+    )
 
 
 def test_bad_inputs_are_one_line_errors(days: Days, tmp_path: Path) -> None:
