@@ -68,21 +68,27 @@ def worker_count(requested: int) -> int:
 
 
 def plan_shards(spans: list[tuple[K, int, int]], window_ns: int) -> list[tuple[K, ...]]:
-    """Groups of logs (each in time order, the groups too) that share no time window:
-    ``spans`` are (log, first, last message time). A log joins the group before it when it
-    starts before that group's last window ends or within :data:`TOUCH_NS` of its end."""
-    groups: list[list[K]] = []
+    """Groups of logs (the groups in time order) that share no time window: ``spans`` are
+    (log, first, last message time). A log joins the group before it when it starts before
+    that group's last window ends or within :data:`TOUCH_NS` of its end. Each group keeps its
+    logs in the order of ``spans`` (the order given): one pass breaks ties between messages
+    of one log time by that order, and a shard must too (two robots' logs from the same
+    instant, whose TF messages share their stamps, gave another map in a shard that put the
+    shorter log first)."""
+    groups: list[list[int]] = []
     group_end = 0
-    for path, start, end in sorted(spans, key=lambda s: (s[1], s[2], str(s[0]))):
+    by_time = sorted(range(len(spans)), key=lambda k: (spans[k][1], spans[k][2], str(spans[k][0])))
+    for k in by_time:
+        _, start, end = spans[k]
         if groups:
             window_end = (group_end // window_ns + 1) * window_ns
             if start < window_end or start - group_end <= TOUCH_NS:
-                groups[-1].append(path)
+                groups[-1].append(k)
                 group_end = max(group_end, end)
                 continue
-        groups.append([path])
+        groups.append([k])
         group_end = end
-    return [tuple(g) for g in groups]
+    return [tuple(spans[k][0] for k in sorted(g)) for g in groups]
 
 
 class ParallelBuild:
