@@ -1,7 +1,8 @@
 """Running a parallel build on a Dask cluster (``aion build ... --scheduler ADDRESS``).
 
 The same plan as ``--workers`` (:mod:`aion_cli.parallel_build`): one task per shard reads its
-logs *by path* (every worker must see them at the same paths, e.g. on a shared file system)
+logs *by path* (every worker must see them at the same absolute paths, e.g. on a shared file
+system; :func:`cluster_paths` makes the client's relative ones absolute)
 and returns its map state (pickled bytes, Dask's own serialisation); the fold runs on the
 cluster too, as a chain of tasks in time order (each joins one shard onto the map before it,
 or learns the shard's logs onto it in sequence where a join would not be exact), so the
@@ -14,6 +15,7 @@ Needs the ``dask`` extra (``pip install 'aion[dask]'``).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import uuid
 from typing import TYPE_CHECKING, Any
 
@@ -112,6 +114,22 @@ def _fallbacks(folded: Folded) -> int:
     return folded.graph_fallbacks
 
 
+def cluster_paths(task: ShardTask) -> ShardTask:
+    """``task`` with its logs and the files its options name (``--graph``,
+    ``--detections-mapping``) made absolute: a Dask worker runs in a working directory of its
+    own, where a path relative to the client's (``aion build run1.mcap --scheduler ...`` in
+    the logs' folder) named no file, and the build failed with "no such file or folder:
+    run1.mcap" although every worker saw the logs at the same absolute paths."""
+    opts = task.opts
+    files = {
+        name: path.absolute()
+        for name in ("graph_file", "detections_mapping")
+        if (path := getattr(opts, name)) is not None
+    }
+    opts = dataclasses.replace(opts, logs=tuple(p.absolute() for p in opts.logs), **files)
+    return dataclasses.replace(task, logs=tuple(p.absolute() for p in task.logs), opts=opts)
+
+
 def run_on_cluster(
     address: str, tasks: list[ShardTask], previous: MapState | None, progress: ProgressSink
 ) -> tuple[Folded, list[ShardResult]]:
@@ -122,6 +140,7 @@ def run_on_cluster(
     workers, their builds are cancelled and the rest is learnt in sequence as one task
     (``shard_fold.learn_rest``) instead of being built apart and then again."""
     tag = uuid.uuid4().hex[:8]
+    tasks = [cluster_paths(task) for task in tasks]
     client = _client(address)
     futures: list[Any] = []
     try:

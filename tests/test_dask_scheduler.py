@@ -153,3 +153,39 @@ def test_a_well_formed_scheduler_address_is_not_refused_before_it_is_needed(
     from aion_cli.build_options import check_scheduler_address
 
     check_scheduler_address(address)  # no error: whether it answers is asked when needed
+
+
+def test_logs_named_relative_to_the_client_are_found_by_workers_elsewhere(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion build day0.mcap day1.mcap --scheduler ...`` in the logs' folder: the workers
+    run in another working directory, and failed with "no such file or folder: day0.mcap"
+    although they saw the logs at the same absolute paths. The tasks now carry absolute
+    paths (the logs', ``--graph``'s), and the map is the sequential build's."""
+    distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
+    from aion_cli.engine.compare import differences
+    from aion_cli.mapquery import load_map
+    from tests.cli.logdata import save_graph_file
+
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    logs = _logs(folder, [0, 48])
+    save_graph_file(folder / "dsg.json")
+    seq = tmp_path / "seq.aion"
+    _build(logs, seq, 1, graph_file=folder / "dsg.json")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # the workers' working directory
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+        host="127.0.0.1",
+    ) as cluster:
+        monkeypatch.chdir(folder)  # the client's: the logs named as there
+        names = [Path(p.name) for p in logs]
+        report = _build(
+            names, tmp_path / "dask.aion", 1, scheduler=cluster.scheduler_address,
+            graph_file=Path("dsg.json"),
+        )
+    assert len(report.workers) == 2  # type: ignore[attr-defined]
+    dask = load_map(tmp_path / "dask.aion", writable=True).state
+    assert differences(load_map(seq, writable=True).state, dask) == []
