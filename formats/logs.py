@@ -37,7 +37,6 @@ format guessing is :mod:`formats.log_format`, decoding with the logs' own defini
 
 from __future__ import annotations
 
-import heapq
 from collections.abc import Callable, Iterable, Iterator
 from operator import attrgetter
 from pathlib import Path
@@ -47,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
 from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
+from aion_cli.formats.log_merge import merge_by_start
 from aion_cli.formats.log_paths import open_sources
 from aion_cli.formats.log_source import LogFile, OtherChannel, _Source
 from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint, topic_spelling_hint
@@ -198,7 +198,7 @@ class LogSet:
         selected = None if topics is None else set(topics)
         if len(self._sources) == 1:
             return self._sources[0].messages(selected, between, unread)
-        return _merge_by_start(self._sources, selected, between, unread)
+        return merge_by_start(self._sources, selected, between, unread)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
@@ -382,41 +382,6 @@ def covered_ns(spans: Iterable[tuple[int, int]]) -> int:
             total += hi - lo
         reach = hi if reach is None else max(reach, hi)
     return total
-
-
-def _merge_by_start(
-    sources: list[_Source],
-    topics: set[str] | None,
-    between: tuple[int, int] | None = None,
-    unread: UnreadHint | None = None,
-) -> Iterator[RawMessage]:
-    """The messages of ``sources`` merged by log time, ties in source order; a source's
-    stream is started only once the merge reaches its first message time (or nothing earlier
-    is left), so files that follow one another are read one after the other."""
-    order = sorted(range(len(sources)), key=lambda k: (sources[k].file.start_ns, k))
-    heap: list[tuple[int, int, int, RawMessage, Iterator[RawMessage]]] = []
-    seq = 0
-    nxt = 0
-    while nxt < len(order) or heap:
-        if nxt < len(order) and (
-            not heap or sources[order[nxt]].file.start_ns <= heap[0][0]
-        ):
-            k = order[nxt]
-            nxt += 1
-            stream = sources[k].messages(topics, between, unread)
-            first = next(stream, None)
-            if first is not None:
-                heapq.heappush(heap, (first.log_time_ns, k, seq, first, stream))
-                seq += 1
-            continue
-        _, k, _, msg, stream = heap[0]
-        yield msg
-        following = next(stream, None)
-        if following is None:
-            heapq.heappop(heap)
-        else:
-            heapq.heapreplace(heap, (following.log_time_ns, k, seq, following, stream))
-            seq += 1
 
 
 def open_logs(

@@ -83,7 +83,7 @@ def from_channels(
 
 
 def merged(parts: Sequence[StreamTimes]) -> StreamTimes | None:
-    """The times of several sources as :func:`formats.logs._merge_by_start` yields their
+    """The times of several sources as :func:`formats.log_merge.merge_by_start` yields their
     messages: merged by log time, ties in source order. That merge is a stable sort by
     ``(time, source)`` exactly when every source's own stream is in time order (it starts a
     source only once the merge reaches the source's first time), so a part that is not in
