@@ -31,7 +31,7 @@ ESC = "\x1b"
         "2300-01-01",  # past 2262: int64 nanoseconds overflow
         "1800-06-01 12:00",
         "99999999999999999999ns",
-        "-9999999999",  # 1653, as UNIX seconds
+        "@-9999999999",  # 1653, as UNIX seconds (a bare negative number needs a unit or @)
         "+100000000w",
         "now+9999999999999999999999s",
     ],
