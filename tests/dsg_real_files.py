@@ -102,3 +102,19 @@ def assert_reads_the_file(snap: Any, want: FromJson, agents: bool = True) -> Non
     # spark_dsg holds an agent's stamp as a timedelta: whole microseconds
     np.testing.assert_array_equal(snap.agents.t_ns, want.agent_ns // 1000 * 1000)
     np.testing.assert_array_equal(snap.agents.xyz, want.agent_xyz)
+
+
+def dangling_edge_copy(folder: Path, name: str) -> Path:
+    """The shared apartment graph (spark_dsg's legacy JSON) with one edge to a place it does
+    not hold, written as ``folder / name``: spark_dsg refuses it, aion reads it leniently
+    (one ``dangling_edges`` skipped)."""
+    from tests.shared_data import real
+
+    doc = json.loads(real("dsg", "apartment_dsg.json").read_text())
+    info = {"type": "EdgeAttributes", "weight": 1.0, "weighted": True}
+    doc["edges"].append(
+        {"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"], "info": info}
+    )
+    path = folder / name
+    path.write_text(json.dumps(doc))
+    return path

@@ -7,13 +7,13 @@ twin; a binary graph named ``.bson`` reads as ``.sparkdsg``, with a note saying 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from aion_cli.formats import dsg as fdsg
 from aion_cli.formats.dsg_files import read_dsg_file
+from tests.dsg_real_files import dangling_edge_copy
 from tests.formats.dsg_builders import MESH_EDGES, MESH_PLACES, hydra_graph
 from tests.robustness.conftest import run
 from tests.shared_data import real
@@ -69,13 +69,7 @@ def test_a_legacy_bson_file_keeps_its_agent_stamps(tmp_path: Path) -> None:
 def test_a_bson_file_spark_dsg_refuses_is_read_leniently(tmp_path: Path) -> None:
     """One edge to a place the file does not hold: spark_dsg refuses the file; as ``.json``
     aion read it leniently, as ``.bson`` it was "cannot read ... (damaged?)", exit 2."""
-    doc = json.loads(real("dsg", "apartment_dsg.json").read_text())
-    info = {"type": "EdgeAttributes", "weight": 1.0, "weighted": True}
-    doc["edges"].append(
-        {"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"], "info": info}
-    )
-    path = tmp_path / "dangling.bson"
-    path.write_text(json.dumps(doc))
+    path = dangling_edge_copy(tmp_path, "dangling.bson")
     got = fdsg.load_graph(path)
     assert got.file.reader == "lenient"
     assert got.file.skipped == {"dangling_edges": 1}

@@ -7,7 +7,6 @@ clone; the other three files need the shared data and skip without it.
 from __future__ import annotations
 
 import datetime
-import json
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 
 from aion_cli.formats import dsg as fdsg
 from aion_cli.formats.dsg_json import restore_agent_stamps, stamps_beside_attributes
-from tests.dsg_real_files import FILES, assert_reads_the_file, from_json
+from tests.dsg_real_files import FILES, assert_reads_the_file, dangling_edge_copy, from_json
 from tests.shared_data import real, real_path
 
 
@@ -65,13 +64,7 @@ def test_legacy_agent_stamps_are_the_files() -> None:
 
 def test_legacy_stamps_of_a_file_read_leniently(tmp_path: Path) -> None:
     """A legacy file spark_dsg refuses (one dangling edge here) keeps its agent stamps too."""
-    doc = json.loads(real("dsg", "apartment_dsg.json").read_text())
-    info = {"type": "EdgeAttributes", "weight": 1.0, "weighted": True}
-    doc["edges"].append(  # to a place the file does not hold
-        {"source": (ord("p") << 56) | 99_999, "target": doc["nodes"][0]["id"], "info": info}
-    )
-    path = tmp_path / "dangling.json"
-    path.write_text(json.dumps(doc))
+    path = dangling_edge_copy(tmp_path, "dangling.json")
     loaded = fdsg.load_graph(path)
     assert loaded.file.reader == "lenient"
     assert loaded.file.skipped == {"dangling_edges": 1}
