@@ -113,6 +113,30 @@ def lock_of(path: str | os.PathLike[str], into: bool = False) -> Path:
     return lock_path(target)
 
 
+def _cannot_write(
+    path: str | os.PathLike[str],
+    lock: Path,
+    exc: OSError,
+    what: str,
+    failed: type[InputError],
+) -> InputError:
+    """The error for a lock that could not be created: it names the output the user asked
+    for and the folder that refused a new file, never the ``.lock`` (a file the user did not
+    ask for: ``-o /proc/x.aion`` said "cannot create lock file /proc/x.aion.lock")."""
+    import errno
+
+    output = f"{what} {Path(path)}" if what != "output" else str(Path(path))
+    reason = exc.strerror or str(exc)
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        hint = "free some disk space, or choose an output path on another disk"
+    else:
+        hint = "choose an output path in a folder you can write to"
+    return failed(
+        f"cannot write {output}: files cannot be created in {lock.parent} ({reason})",
+        hint=hint,
+    )
+
+
 @contextlib.contextmanager
 def output_lock(
     path: str | os.PathLike[str],
@@ -155,10 +179,7 @@ def output_lock(
                     acquired = _try_create_lock(lock)
         except OSError as exc:
             if not isinstance(exc, FileExistsError):
-                raise failed(
-                    f"cannot create lock file {lock}: {exc.strerror or exc}",
-                    hint=f"check free disk space and write permissions on the {what}'s folder",
-                ) from exc
+                raise _cannot_write(path, lock, exc, what, failed) from exc
         if not acquired:
             holder = ""
             with contextlib.suppress(OSError):

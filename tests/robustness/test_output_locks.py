@@ -7,6 +7,7 @@ their frames in one folder). They now hold :func:`formats.output_lock.output_loc
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shlex
@@ -24,7 +25,9 @@ WRITERS: dict[str, tuple[tuple[str, ...], str, bool]] = {
     "convert": (("convert", "{csv}", "-o", "{out}"), "x.mcap", False),
     "simulate": (("simulate", "-o", "{out}", "--days", "0.05", "-q"), "x.mcap", False),
     "simulate --scenes": (
-        ("simulate", "-o", "{out}", "--scenes", "2", "--days", "0.05", "-q"), "scenes", True
+        ("simulate", "-o", "{out}", "--scenes", "2", "--days", "0.05", "-q"),
+        "scenes",
+        True,
     ),
     "export DIR": (("export", "{map}", "--historical", "-o", "{out}"), "scene", True),
     "export .ply": (("export", "{map}", "--historical", "-o", "{out}"), "x.ply", False),
@@ -165,4 +168,67 @@ def test_a_lock_in_a_missing_folder_is_the_missing_folder_error(tmp_path: Path) 
     config = ScenarioConfig(days=0.01, seed=1)
     with pytest.raises(OutputPathError, match="does not exist"):
         run_scene(config, load_environment(config), 0, target)
+    assert os.listdir(tmp_path) == []
+
+
+MAP_WRITERS: dict[str, tuple[str, ...]] = {
+    "build": ("build", "{log}", "-o", "{out}"),
+    "compact": ("compact", "{map}", "-o", "{out}"),
+    "merge": ("merge", "{map}", "{copy}", "-o", "{out}"),
+}
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+@pytest.mark.parametrize("name", sorted(WRITERS) + sorted(MAP_WRITERS))
+def test_an_output_where_no_file_can_be_made_names_the_output_not_its_lock(
+    office: Office, tmp_path: Path, name: str
+) -> None:
+    """``-o /proc/x.aion`` (a folder that exists but takes no new file, even for root) said
+    "cannot create lock file /proc/x.aion.lock: No such file or directory", a file the user
+    never asked for; it is one line naming the output and the folder that refused it, with
+    a hint to write elsewhere, exit 2."""
+    csv = tracks_csv(tmp_path / "tracks.csv")
+    if name in MAP_WRITERS:
+        out = Path("/proc/aion-test.aion")
+        copy = office.copy_map(tmp_path / "copy.aion")
+        names = {"log": office.log, "map": office.map, "copy": copy, "out": out}
+        args = [part.format(**names) for part in MAP_WRITERS[name]]
+    else:
+        out = Path("/proc") / WRITERS[name][1]
+        args = _args(name, office, csv, out)
+    result = run(*args)
+    fails(result, f"cannot write {'map ' if name in MAP_WRITERS else ''}{out}:")
+    assert "files cannot be created in /proc (" in result.stderr
+    assert "hint: choose an output path in a folder you can write to" in result.stderr
+    assert ".lock" not in result.stderr
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("code", "hint"),
+    [
+        (errno.EACCES, "in a folder you can write to"),
+        (errno.EROFS, "in a folder you can write to"),
+        (errno.ENOSPC, "free some disk space"),
+    ],
+)
+def test_a_refused_lock_names_the_output_and_the_reason(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, code: int, hint: str
+) -> None:
+    """A folder without write permission, a read-only disk, a full disk: the error names the
+    output, its folder and the system's reason, never the lock file; nothing is left."""
+    from aion_cli.formats import output_lock as module
+    from aion_cli.formats.outputs import OutputPathError
+
+    def refused(lock: Path) -> bool:
+        raise OSError(code, os.strerror(code))
+
+    monkeypatch.setattr(module, "_try_create_lock", refused)
+    target = tmp_path / "x.mcap"
+    with pytest.raises(OutputPathError) as caught, module.output_lock(target):
+        pass
+    assert caught.value.message == (
+        f"cannot write {target}: files cannot be created in {tmp_path} ({os.strerror(code)})"
+    )
+    assert hint in (caught.value.hint or "")
     assert os.listdir(tmp_path) == []
