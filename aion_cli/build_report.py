@@ -61,6 +61,24 @@ def _class_hint(topics: list[str]) -> str:
     )
 
 
+def _no_detection_hint(topics: list[str], dropped: dict[str, int]) -> str:
+    """The hint of a build that read no usable person, by why: the class filter dropped them
+    (:func:`_class_hint`); every item's arrays were shorter than the mapping's paths index
+    (``short_array``: the items are there, so "the topics carry no detections" misled);
+    otherwise the topics carry nobody."""
+    if dropped.get("class"):
+        return _class_hint(topics)
+    if {k for k, n in dropped.items() if n} == {"short_array"}:
+        topic = topics[0] if len(topics) == 1 else "TOPIC"
+        return (
+            f"the topics carry {dropped['short_array']:,} items, but each one's array is shorter "
+            "than an index in the --detections-mapping's paths (pos[0..1] of an empty "
+            "pos[]); check those indices against the messages (`aion info LOG "
+            f"--suggest-mapping {topic}` shows their fields); "
+        )
+    return "the topics carry no detections (choose other topics with --detections-topic); "
+
+
 #: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
 _DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
 
@@ -411,8 +429,7 @@ def check_usable(
                 if read_warnings
                 else ""
             )
-            + (_class_hint(report.detection_topics) if c.dropped.get("class") else
-               "the topics carry no detections (choose other topics with --detections-topic); ")
+            + _no_detection_hint(report.detection_topics, c.dropped)
             + written,
         )  # fmt: skip
     hint = written

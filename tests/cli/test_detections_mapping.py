@@ -418,11 +418,10 @@ def test_a_definition_using_a_type_it_does_not_define_is_named(tmp_path: Path) -
     assert report["mean_speed_m_s"] == pytest.approx(1.0)
 
 
-def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: Path) -> None:
-    """``fx/Ps``: people with ``float64[] pos``, mapped as ``pos[0..1]``. Person a walks +x
-    and b -x at 0.5 m/s, one message a second; in message 7 b's ``pos`` is empty. That one
-    item stopped the build ('error: field path 'pos[0..1]': index 1 out of range'); now it
-    is dropped and counted (``short_array``) and the other 39 detections build."""
+def _short_log(tmp_path: Path, short: set[tuple[int, str]]) -> tuple[Path, Path]:
+    """``fx/Ps``: people with ``float64[] pos``, mapped as ``pos[0..1]``, and the mapping.
+    Person a walks +x and b -x at 0.5 m/s, one message a second for 20 s; the (second,
+    name) items in ``short`` have an empty ``pos``."""
     types = {"fx/msg/P": "string name\nfloat64[] pos\n",
              "fx/msg/Ps": "std_msgs/Header header\nfx/P[] people\n"}  # fmt: skip
     own = OwnTypes(types)
@@ -430,9 +429,9 @@ def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: 
     messages = []
     for k in range(20):
         t = T0 + k * S
-        b = np.array([10.0 - 0.5 * k, 4.0]) if k != 7 else np.zeros(0)
-        people = [T["fx/msg/P"](name="a", pos=np.array([0.5 * k, 1.0])),
-                  T["fx/msg/P"](name="b", pos=b)]  # fmt: skip
+        at = {"a": [0.5 * k, 1.0], "b": [10.0 - 0.5 * k, 4.0]}
+        people = [T["fx/msg/P"](name=n, pos=np.array([] if (k, n) in short else xy))
+                  for n, xy in at.items()]  # fmt: skip
         msg = T["fx/msg/Ps"](header=own.header(t, "map"), people=people)
         messages.append(Message("/people", "fx/msg/Ps", own.cdr(msg, "fx/msg/Ps"), t))
     log = write_mcap(tmp_path / "short.mcap", messages,
@@ -440,6 +439,14 @@ def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: 
     mapping = tmp_path / "short.toml"
     mapping.write_text('[[topic]]\ntopic = "/people"\nmsgtype = "fx/msg/Ps"\n'
                        'array = "people"\nposition = "pos[0..1]"\nid = "name"\n')  # fmt: skip
+    return log, mapping
+
+
+def test_an_item_whose_sequence_is_too_short_is_dropped_not_the_build(tmp_path: Path) -> None:
+    """In message 7 b's ``pos`` is empty (:func:`_short_log`). That one item stopped the
+    build ('error: field path 'pos[0..1]': index 1 out of range'); now it is dropped and
+    counted (``short_array``) and the other 39 detections build."""
+    log, mapping = _short_log(tmp_path, {(7, "b")})
     report = run_json("build", log, "-o", tmp_path / "short.aion", "--detections-mapping",
                       mapping, "--format", "json")  # fmt: skip
     assert report["detections"] == {"read": 40, "used": 39, "dropped": {"short_array": 1}}
@@ -463,3 +470,20 @@ def test_a_missing_or_broken_mapping_file_comes_with_a_hint(tmp_path: Path) -> N
             hints = [line for line in result.stderr.splitlines() if line.startswith("hint: ")]
             assert len(hints) == 1, result.stderr
             assert "--suggest-mapping" in hints[0]
+
+
+def test_a_build_whose_every_item_is_too_short_says_so(tmp_path: Path) -> None:
+    """Every ``pos`` empty: the hint said "the topics carry no detections", but the 40 items
+    are there, their arrays shorter than the mapping's ``pos[0..1]``; it says so, no map."""
+    log, mapping = _short_log(tmp_path, {(k, n) for k in range(20) for n in "ab"})
+    out = tmp_path / "short.aion"
+    result = run("build", log, "-o", out, "--detections-mapping", mapping)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "no people detection in the 20 messages of /people",
+                          "(dropped: short_array 40)")  # fmt: skip
+    assert "carry no detections" not in result.stderr
+    assert "hint: the topics carry 40 items, but each one's array is shorter than an index " \
+        "in the --detections-mapping's paths" in result.stderr  # fmt: skip
+    assert "--suggest-mapping /people" in result.stderr
+    assert "no map was written" in result.stderr
+    assert not out.exists()
