@@ -417,12 +417,29 @@ def check_after_open(
     clocks = other_clock_error(names, log_start_ns, open_start, int(t_ns.min()))
     if clocks is not None:
         raise clocks
+    raise out_of_order_error(
+        f"the {what}s of {names}", int(t_ns.min()), open_start, map_name, map_inputs, logs
+    )
+
+
+def out_of_order_error(
+    what: str,
+    first_ns: int,
+    open_start: int,
+    map_name: str,
+    map_inputs: Sequence[str],
+    logs: Sequence[Path],
+) -> InputError:
+    """The refusal of data (``what``: "the detections of a.mcap", first at ``first_ns``)
+    before the open window (from ``open_start``) of the continued map ``map_name``: its hint
+    is the command that builds the map's inputs (``map_inputs``) and the build's ``logs`` at
+    once. One text for both routes: a sequential build (:func:`check_after_open`) and a
+    parallel one's fold of its shards (:func:`aion_cli.shard_fold.fold`)."""
     # paths quoted as a shell needs them (a space in a folder's name)
     words = [*map(path_word, map_inputs[:3]), *(["..."] if len(map_inputs) > 3 else [])]
     listed = " ".join([*words, *map(path_word, logs[:3])])
-    raise InputError(
-        f"the {what}s of {', '.join(p.name for p in logs)} start at "
-        f"{utc_text(int(t_ns.min()))}, but {map_name} has already closed every "
+    return InputError(
+        f"{what} start at {utc_text(first_ns)}, but {map_name} has already closed every "
         f"window before {utc_text(open_start)}: logs must be added to a map in time order; "
         "nothing was added",
         hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",

@@ -184,6 +184,7 @@ class ParallelBuild:
                 opts if fill is None else dataclasses.replace(opts, observed_fill=fill),
                 self.config, part, first, seed, static_tf, recordings,
                 opens_map=previous is None and group == shards[0][0],
+                map_inputs=tuple(e.name for e in before.inputs) if before is not None else (),
             )
             for i, ((group, part, first), seed, fill) in enumerate(
                 zip(shards, seeds, fills, strict=True)

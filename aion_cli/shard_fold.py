@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.build_report import BuildReport, ProgressSink
-from aion_cli.errors import InputError
 from aion_cli.time_shards import part_fields
 
 if TYPE_CHECKING:
@@ -59,6 +58,9 @@ class ShardTask:
     recordings: tuple[dict[str, Any], ...] = ()
     # no map and no logs before the shard's logs (ShardStart.opens_map)
     opens_map: bool = False
+    # the names of the continued map's inputs: a shard out of time order is refused with the
+    # command that builds them and the logs at once (aion_cli.log_times.out_of_order_error)
+    map_inputs: tuple[str, ...] = ()
 
 
 @dataclass
@@ -259,7 +261,7 @@ def learn_rest(
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
     """A continued map has closed every window before its open one: logs with data there
     must come in time order (as a sequential build's ``_check_after_map`` says)."""
-    from aion_cli.engine.time_text import utc_text
+    from aion_cli.log_times import out_of_order_error
 
     start = result.report.start_ns
     if acc.open_window is None or start is None:
@@ -277,11 +279,14 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
         continued = task.opts.continue_from
         name = continued.name if continued is not None else "the map"
         check_continued(task.recordings, name, _names(task.logs), result.report.sketch)
-        raise InputError(
-            f"the messages of {_names(task.logs)} start at {utc_text(start)}, but the map has "
-            f"already closed every window before {utc_text(open_start)}: logs must be added to a "
-            "map in time order; nothing was added",
-            hint="rebuild the map from all logs at once",
+        early = stamped is not None and stamped < open_start  # as a sequential build says
+        raise out_of_order_error(
+            f"the {'detections' if early else 'messages'} of {_names(task.logs)}",
+            stamped if stamped is not None and early else start,
+            open_start,
+            name,
+            task.map_inputs,
+            task.opts.logs,
         )
 
 

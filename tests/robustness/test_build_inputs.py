@@ -92,6 +92,34 @@ def test_a_log_reaching_back_into_closed_windows_is_refused(tmp_path: Path) -> N
     assert [i["name"] for i in read_manifest(target)["inputs"]] == ["a.mcap", "b.mcap"]
 
 
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_logs_out_of_time_order_name_the_rebuild_in_both_routes(
+    tmp_path: Path, workers: str
+) -> None:
+    """A later and an older log added to a map at once: one process refuses them as the
+    batch of detections reaches back (``check_after_open``), two as the fold meets the older
+    log's shard (``shard_fold._check_order``), which said "the messages of old.mcap ... the
+    map has already closed" and "rebuild the map from all logs at once" naming none. Both
+    routes give the command (the map's input, then the logs) and name the map."""
+    new = write_log(tmp_path / "new.mcap", walk(1200, start_s=7200))
+    target = tmp_path / "m.aion"
+    build_json(new, "-o", target)
+    before = target.read_bytes()
+    later = write_log(tmp_path / "later.mcap", walk(600, start_s=14400, xyz=(2.2, 0.1, 0.0)))
+    old = write_log(tmp_path / "old.mcap", walk(600, xyz=(3.2, 0.1, 0.0)))
+    result = run("build", later, old, "--map", target, "--workers", workers)
+    named = "later.mcap, old.mcap" if workers == "1" else "old.mcap"  # the shard's own
+    fails(
+        result,
+        f"the detections of {named} start at 2026-11-23 08:00:00 UTC, but m.aion has already "
+        "closed every window before 2026-11-23 10:10:00 UTC",
+    )
+    listed = " ".join(shlex.quote(str(p)) for p in (later, old))
+    assert f"hint: rebuild the map from all logs at once (aion build new.mcap {listed} -o " \
+        "NEW.aion)" in result.stderr  # fmt: skip
+    assert target.read_bytes() == before
+
+
 def test_a_log_overlapping_the_maps_data_in_its_open_window_is_noted(tmp_path: Path) -> None:
     """A log that starts before the map's data ends but inside its open window is accepted,
     and the map then differs from one build of both (its detections come after the map's,
