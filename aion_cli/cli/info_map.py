@@ -135,9 +135,10 @@ def clock_in(t_ns: int, zone: str) -> str:
 
 def created_text(created: Any, report: dict[str, Any]) -> str:
     """When the map was written (the manifest's ``created``, UTC ``2026-12-07T04:44:13Z``)
-    on the clock of the map's zone, which the time span row names, as :func:`clock_in`
-    writes it; as the manifest has it when either cannot be read (a zone this machine does
-    not know, a hand-edited manifest)."""
+    on the clock of the map's zone, as :func:`clock_in` writes it, followed by the zone's
+    name as the time span row ends with it (``2026-12-07 13:44:13 Asia/Tokyo``: a bare time
+    read as the machine's own); as the manifest has it when either cannot be read (a zone
+    this machine does not know, a hand-edited manifest)."""
     from datetime import datetime
 
     from aion_cli.errors import AionError
@@ -150,7 +151,7 @@ def created_text(created: Any, report: dict[str, Any]) -> str:
         return str(created)
     if moment.tzinfo is None:
         return str(created)
-    return clock_in(to_ns(moment), zone)
+    return f"{clock_in(to_ns(moment), zone)} {zone}"
 
 
 def print_map(report: dict[str, Any]) -> None:
@@ -171,7 +172,7 @@ def print_map(report: dict[str, Any]) -> None:
     table.add_column("what", style="bold", no_wrap=True)
     table.add_column("value")
     table.add_row("format", safe(f"{report.get('format')} {report.get('version')}"))
-    # the span names the map's zone once; the build's own time is on the same clock
+    # the span names the map's zone; the build's own time is on the same clock, named too
     span_row = span_with_days(span_text(seconds), start, end, report)
     table.add_row("time span", span_row)
     created = created_text(report.get("created"), report)

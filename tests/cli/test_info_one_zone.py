@@ -93,9 +93,11 @@ def test_info_map_agrees_with_info_log_on_one_clock(tmp_path: Path) -> None:
     created = run_json("info", out, "--format", "json")["created"]  # UTC, as before
     assert created.endswith("Z")
     local = datetime.fromisoformat(created).astimezone(TOKYO).strftime("%Y-%m-%d %H:%M:%S")
-    assert rows["created"].startswith(f"{local} by aion")
+    assert rows["created"].startswith(f"{local} Asia/Tokyo by aion")  # its zone named
     outside_config = [text for what, text in rows.items() if what != "config"]
-    assert sum(text.count("Asia/Tokyo") for text in outside_config) == 1
+    named = [what for what, text in rows.items() if what != "config" and "Asia/Tokyo" in text]
+    assert named == ["time span", "created"]  # the two times of day; hours observed are hours
+    assert sum(text.count("Asia/Tokyo") for text in outside_config) == 2
     assert not any("UTC" in text or text.endswith("Z") for text in outside_config)
     # the log's span on the same clock: the same minutes as the map's
     header = _said(run("info", log))
