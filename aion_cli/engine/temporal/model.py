@@ -208,6 +208,26 @@ def choose(
     )
 
 
+def _unseen_own_hours(
+    params: TemporalParams, fc: Forecaster, flow_choice: I64, map_hours: BoolA
+) -> BoolA:
+    """bool[E, hours of the day]: for each entry that chose ``static``, the hours the map
+    observed on some day and the entry on none (its windows summed over the kinds of day);
+    all False for the other entries and without the ``shape`` family (:class:`Predictor`)."""
+    per_day = params.calendar.bins_per_day
+    out = np.zeros((flow_choice.size, per_day), dtype=bool)
+    if "shape" not in params.flow or not params.flow_enabled[params.flow.index("shape")]:
+        return out
+    e = np.flatnonzero(flow_choice == params.flow.index("static"))
+    if e.size == 0:
+        return out
+    bins = np.arange(params.n_profile)
+    windows = fc.profile_windows_at(e[:, None], bins[None, :])
+    own = windows.reshape(e.size, -1, per_day).sum(axis=1) > 0
+    out[e] = ~own & map_hours[None, :]
+    return out
+
+
 @dataclass
 class Predictor:
     """The time-independent part of the forecasts of entries ``rows``: every family's parts,
@@ -231,7 +251,20 @@ class Predictor:
     are, which is what the hours observed support. A kind of day never observed at an hour
     seen on others (a Saturday morning after weekdays only) is not extrapolated in this
     sense: the families carry the other days' rhythm there (the profile falls back to the
-    hour of the day)."""
+    hour of the day).
+
+    Hours an entry never observed (``unseen_own``, per entry and hour of the day): an entry
+    that chose ``static`` chose it on the windows it was observed in — a place the robot
+    passes by day only was scored by day only, where its flat rate may well beat the
+    group's rhythm — and a constant rate says nothing of the hours it never saw. At an hour
+    the map observed (elsewhere) but the entry never did, such an entry forecasts with
+    ``shape`` instead (its rate times its group's periodic shape, which the entries observed
+    at that hour measured), and names that family: on the bundled sample a place seen only
+    07–19 h, with nobody anywhere at night, was forecast at half its daytime level all night
+    (its constant rate took half of the reconciled night total). The periodic families need
+    no such rule (``profile`` at a bin without windows is its ``shape`` parent); FreMEn's
+    sinusoids are left as chosen. Without the ``shape`` family (``ModelConfig.families``)
+    ``static`` stays."""
 
     params: TemporalParams
     forecaster: Forecaster
@@ -241,6 +274,8 @@ class Predictor:
     map_family: str | None
     extrapolated: BoolA
     phi_static: F64
+    unseen_own: BoolA
+    phi_shape: F64
     phi_total: float = 1.0
     """How bursty the map's window totals are (``shape_prior.overdispersion``): the spread
     of a sum of places (:mod:`~aion_cli.engine.temporal.totals`)."""
@@ -267,6 +302,8 @@ class Predictor:
         phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
         static = np.full_like(flow_choice, params.flow.index("static"))
         phi_static = dispersion(state.flow_chi2[rows], state.flow_scored[rows], static)
+        shape = np.full_like(flow_choice, params.flow.index("shape"))
+        phi_shape = dispersion(state.flow_chi2[rows], state.flow_scored[rows], shape)
         name = params.flow[map_choice]
         map_family = name if params.config.reconcile and name != "static" else None
         per_day = params.calendar.bins_per_day
@@ -274,14 +311,32 @@ class Predictor:
         hours[observed_bins(params, state, rows, [], 0) % per_day] = True
         seen = np.tile(hours, params.n_profile // per_day)
         extrapolated = ~seen if seen.any() else seen  # nothing observed: nothing to fall to
+        unseen_own = _unseen_own_hours(params, fc, flow_choice, hours)
         return cls(
-            params, fc, flow_choice, dir_choice, phi, map_family, extrapolated, phi_static,
+            params,
+            fc,
+            flow_choice,
+            dir_choice,
+            phi,
+            map_family,
+            extrapolated,
+            phi_static,
+            unseen_own,
+            phi_shape,
             overdispersion(state.window_chi2),
         )
 
     def _flow_choice(self, e: I64, h: I64) -> I64:
-        """Each pair's flow family: the entry's choice, ``static`` in extrapolated bins."""
-        return self._at_pairs(self.flow_choice[e], self.params.flow.index("static"), h)
+        """Each pair's flow family: the entry's choice, ``static`` in extrapolated bins,
+        ``shape`` for a ``static`` entry at an hour it never observed (``unseen_own``)."""
+        static = self.params.flow.index("static")
+        choice = self._at_pairs(self.flow_choice[e], static, h)
+        if not self.unseen_own.any():
+            return choice
+        hour = h % self.params.calendar.bins_per_day
+        fall = (choice == static) & self.unseen_own[e, hour]
+        out: I64 = np.where(fall, self.params.flow.index("shape"), choice)
+        return out
 
     def _direction_choice(self, e: I64, h: I64) -> I64:
         """Each pair's direction family: the entry's, ``static`` in extrapolated bins."""
@@ -406,9 +461,14 @@ class Predictor:
     def variances(self, e: I64, h: I64, flow: F64) -> F64:
         """The variance of the window count at (entry position, profile bin) pairs whose
         expected count is ``flow``: φ · flow, with the entry's dispersion φ of its chosen
-        family (of ``static`` in extrapolated bins, where ``static`` forecasts). ``flow``
+        family (of ``static`` in extrapolated bins, where ``static`` forecasts; of ``shape``
+        where a ``static`` entry forecasts with it, at an hour it never observed). ``flow``
         may be a share of the window's forecast (a window watched in part): counts over
         a share s of a window have mean s·λ and variance φ·s·λ, as the day-ahead scoring
         measured φ (``scoring``)."""
-        out: F64 = np.where(self.extrapolated[h], self.phi_static[e], self.phi[e]) * flow
+        phi = np.where(self.extrapolated[h], self.phi_static[e], self.phi[e])
+        if self.unseen_own.any():
+            fall = self.unseen_own[e, h % self.params.calendar.bins_per_day]
+            phi = np.where(fall, self.phi_shape[e], phi)
+        out: F64 = phi * flow
         return out
