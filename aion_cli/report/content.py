@@ -340,21 +340,24 @@ def room_labels(loaded: LoadedMap) -> dict[str, str]:
 def busiest_entries(loaded: LoadedMap, t_ns: int | None) -> tuple[tuple[Busiest, ...], int]:
     """The ``TOP_ENTRIES`` busiest entries (places and cells) at ``t_ns`` (None: as
     observed) that have any flow, exactly as ``aion predict --top N`` lists them, with each
-    one's room and the flow family that forecasts it (the choice does not depend on the
-    time), and how many entries the map has."""
+    one's room and its flow family (at ``t_ns``, the family that forecasts it then; as
+    observed, the family it chose: a forecast at an hour no log observed uses ``static``,
+    and one of an entry that chose ``static`` at an hour it never observed uses ``shape``,
+    ``temporal.model.Predictor``), and how many entries the map has."""
     from aion_cli.engine.node_ids import parse_node_id
     from aion_cli.engine.query import node_symbol, parent_ids
-    from aion_cli.engine.windows import EPOCH_NS
     from aion_cli.predictions import entry_ids, entry_table, predicted_records
 
     rows, matched = predicted_records(loaded, t_ns, "all", top=TOP_ENTRIES)
     rows = [r for r in rows if (r.get("flow") or 0) > 0]  # a busiest place has some flow
     families = {r["id"]: r["family"] for r in rows}
-    if t_ns is None and rows:  # historical records say "historical": ask the forecast
-        table = entry_table(loaded, EPOCH_NS)
-        ids = entry_ids(table, np.arange(len(table)))
+    if t_ns is None and rows:  # historical records say "historical": the families chosen
+        table = entry_table(loaded, None)  # its first rows are the predictor's, in its order
+        _order, predictor = loaded.state.predictor()
+        chosen = np.asarray(predictor.params.flow, dtype=str)[predictor.flow_choice]
+        ids = entry_ids(table, np.arange(chosen.size))
         pick = np.flatnonzero(np.isin(ids, [r["id"] for r in rows]))
-        families = dict(zip(ids[pick].tolist(), table.flow_family[pick].tolist(), strict=True))
+        families = dict(zip(ids[pick].tolist(), chosen[pick].tolist(), strict=True))
     rooms = [""] * len(rows)
     graph = loaded.graph
     if graph is not None and rows:
