@@ -118,17 +118,20 @@ def _add_general(red: Redirects, keys: np.ndarray, nodes: np.ndarray) -> None:
 def test_redirects_add_equals_a_sort_of_the_whole_table(
     steps: list[tuple[int, bool, bool, int]]
 ) -> None:
-    """Keys added sorted (as binds add them) or not, distinct or repeating old ones: the
-    table equals the stable sort of old and new keys, and a key redirected twice raises with
-    the same table left behind."""
+    """Keys added sorted (as binds add them) or not, distinct or repeating old ones (or each
+    other): the table equals the stable sort of old and new keys, and a key redirected twice
+    raises exactly when the whole-table scan finds it, leaving the table as it was."""
     merged, plain = Redirects(), Redirects()
     for size, in_order, repeat, seed in steps:
         rng = np.random.default_rng(seed)
         fresh = rng.choice(np.arange(-500, 500), size=size, replace=False).astype(np.int64)
         if repeat and plain.keys.size:
             fresh[: max(1, size // 4)] = rng.choice(plain.keys, size=min(size, max(1, size // 4)))
+        if not repeat and size > 2 and seed % 3 == 0:  # a key twice among the new ones
+            fresh[-1] = fresh[seed % (size - 1)]
         keys = np.sort(fresh) if in_order else fresh
         nodes = rng.integers(1, 2**40, size).astype(np.uint64)
+        before = merged.keys.copy(), merged.nodes.copy()
         outcome = []
         for red, add in ((merged, Redirects.add), (plain, _add_general)):
             try:
@@ -137,12 +140,15 @@ def test_redirects_add_equals_a_sort_of_the_whole_table(
             except ValueError as exc:
                 outcome.append(str(exc))
         assert outcome[0] == outcome[1]
+        if outcome[0] is not None:  # left as it was; the scan's table is broken: start again
+            assert np.array_equal(merged.keys, before[0])
+            assert np.array_equal(merged.nodes, before[1])
+            merged, plain = Redirects(), Redirects()
+            continue
         assert merged.keys.dtype == plain.keys.dtype
         assert merged.nodes.dtype == plain.nodes.dtype
         assert np.array_equal(merged.keys, plain.keys)
         assert np.array_equal(merged.nodes, plain.nodes)
-        if outcome[0] is not None:  # both tables are broken alike: start again
-            merged, plain = Redirects(), Redirects()
 
 
 def test_redirects_add_to_an_empty_table_and_nothing() -> None:
@@ -156,6 +162,24 @@ def test_redirects_add_to_an_empty_table_and_nothing() -> None:
     assert red.nodes.tolist() == [9, 7]
     with pytest.raises(ValueError, match="twice"):
         red.add(np.array([5], np.int64), np.array([3], np.uint64))
+
+
+@pytest.mark.parametrize("repeated", [[-3], [40], [7], [6, 7], [8, 8], [41, 41], [-9, -9]])
+def test_redirects_add_finds_a_repeat_at_the_table_ends_and_among_new_keys(
+    repeated: list[int]
+) -> None:
+    """A repeat of the first, the last or a middle key (alone, or beside a neighbour that
+    is new), or a key given twice in one add (below, above or inside the table): raises, and
+    the table keeps its keys and nodes; neighbours that are not equal do not raise."""
+    red = Redirects()
+    red.add(np.array([-3, 7, 40], np.int64), np.array([1, 2, 3], np.uint64))
+    with pytest.raises(ValueError, match="twice"):
+        red.add(np.array(repeated, np.int64), np.arange(len(repeated), dtype=np.uint64) + 9)
+    assert red.keys.tolist() == [-3, 7, 40]
+    assert red.nodes.tolist() == [1, 2, 3]
+    red.add(np.array([-4, -2, 6, 8, 39, 41], np.int64), np.arange(6, dtype=np.uint64) + 9)
+    assert red.keys.tolist() == [-4, -3, -2, 6, 7, 8, 39, 40, 41]
+    assert red.nodes.tolist() == [9, 1, 10, 11, 2, 12, 13, 3, 14]
 
 
 # -- a day's scoring reads the pooled entries' profile sums ------------------------------------
