@@ -140,3 +140,12 @@ def test_rooms_sum_their_places_with_the_maps_total_dispersion() -> None:
     np.testing.assert_array_equal(wide.flow, plain.flow)  # the means are unchanged
     # R1 (places of 4 and 2): 18 + (5 - 1)·((4 + 2)^2 - 4^2 - 2^2)/17 = 18 + 64/17; R2: 18
     np.testing.assert_allclose(wide.flow_var, [18 + 64 / 17, 18])
+
+
+def test_groups_without_places_have_no_variance() -> None:
+    """No place in any window (a held-out log of another place: ``evaluate holdout`` judged
+    nothing) gives zero variance per group, not a cast error from bincount's int64 zeros."""
+    none = np.zeros(0, dtype=np.int64)
+    got = sum_variance(np.zeros(0), np.zeros(0), none, 3, 5.0, phi_total=4.0)
+    assert got.dtype == np.float64
+    assert got.tolist() == [0.0, 0.0, 0.0]

@@ -55,8 +55,9 @@ def sum_variance(
     independent = np.bincount(group, var, minlength=n_groups).astype(np.float64)
     if phi_total <= 1.0:
         return independent
-    total = np.bincount(group, mu, minlength=n_groups)
-    own = np.bincount(group, mu * mu, minlength=n_groups)
+    # float64 whatever the input: bincount of no places returns int64 zeros
+    total = np.bincount(group, mu, minlength=n_groups).astype(np.float64, copy=False)
+    own = np.bincount(group, mu * mu, minlength=n_groups).astype(np.float64, copy=False)
     m = np.broadcast_to(np.asarray(reference, dtype=np.float64), total.shape)
     pairs = np.clip(total * total - own, 0.0, None)  # rounding: never below the independent sum
     covariance = np.divide(
