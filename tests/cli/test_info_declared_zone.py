@@ -57,4 +57,5 @@ def test_a_fixed_sensors_hours_are_in_the_zone_the_log_declares(tmp_path: Path) 
     table = run("info", tmp_path / "morning.aion")
     shown = " ".join(table.stdout.split())
     assert "weekdays 07:00-08:00; weekends none " in shown  # the zone: named by the time span
-    assert shown.count("Europe/Berlin") == 2  # the time span's and the config row's timezone
+    # the time span's, the created row's (458587a5) and the config row's timezone
+    assert shown.count("Europe/Berlin") == 3

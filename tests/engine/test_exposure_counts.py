@@ -121,7 +121,9 @@ def test_a_place_passed_for_seconds_does_not_top_the_map(floor: float) -> None:
     assert float(history.flow[at_c]) == 3.0
     assert float(history.flow[at_a]) == pytest.approx(5.0, rel=0.05)
     forecast = predict_table(m.state, T0 + windows * W + 3600 * S)
-    assert float(forecast.flow[at_c]) <= 3.0 + 1e-9
+    # 01:00, an hour C was never watched at: its static rate times the group's daily shape
+    # there (e5fceacc), which A's even day keeps within its sampling noise of 1
+    assert float(forecast.flow[at_c]) == pytest.approx(3.0, rel=0.05)
     assert int(np.nanargmax(forecast.flow)) == at_a
 
 
