@@ -163,7 +163,7 @@ def add_entries(
         src, dst = _fold_shared_rows(early, src, dst)
     out.temporal.add_from(early.temporal, src, dst, observation)
     out.temporal.glob.add_block(np.array([0]), early.temporal.glob)
-    out.temporal.window_chi2 += early.temporal.window_chi2
+    out.temporal.add_map_sums(early.temporal)
     out.temporal.touch()
 
 

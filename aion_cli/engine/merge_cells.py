@@ -57,7 +57,7 @@ def merge_into_earlier(early: MapState, late: MapState) -> MapState:
     _add_entries(early, late, src, dst, new)
     early.temporal.add_from(late.temporal, src, dst, "add")
     early.temporal.glob.add_block(np.array([0]), late.temporal.glob)
-    early.temporal.window_chi2 += late.temporal.window_chi2
+    early.temporal.add_map_sums(late.temporal)
     early.temporal.touch()
     row_map = np.full(late.entries.capacity, -1, np.int64)
     row_map[src] = dst

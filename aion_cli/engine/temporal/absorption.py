@@ -6,7 +6,8 @@ the entries' own blocks, and the counts into ``cnt_fourier`` / ``cnt_profile`` â
 block's temporaries (a K-vector per (row, value bin)) stay small on any map. Every sum is
 taken per row in the pairs' order, so the accumulators do not depend on the block size. How
 bursty the day's window totals were is added to ``window_chi2``
-(:mod:`~aion_cli.engine.temporal.shape_prior`).
+(:mod:`~aion_cli.engine.temporal.shape_prior`), and its level per profile bin to
+``day_level`` (:mod:`~aion_cli.engine.temporal.day_level`).
 Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'s job.
 """
 
@@ -17,6 +18,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.grouping import split_by_key, unique_inverse
 from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
+from aion_cli.engine.temporal.day_level import add_sums, day_sums
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.shape_prior import day_chi2
@@ -74,6 +76,7 @@ def absorb_day(
         )
         state.glob.add_block(np.array([0]), block)
     state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
+    state.day_level = add_sums(state.day_level, day_sums(day, h, n_prof))  # and their level
     obs_e, obs_s, obs_w = day.own_pairs()
     for o in _row_blocks(obs_e):
         _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], utc_s, h, phasor)

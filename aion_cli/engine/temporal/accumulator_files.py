@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.temporal import shape_prior
+from aion_cli.engine.temporal import day_level, shape_prior
 from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalState
 from aion_cli.engine.temporal.observation_block import ObsBlock
 from aion_cli.engine.temporal.stored_layout import (
@@ -49,6 +49,10 @@ def state_to_arrays(state: TemporalState, prefix: str, rows: I64) -> dict[str, A
     pos = np.arange(r.size, dtype=np.int64)
     out: dict[str, Any] = state.glob.to_arrays(prefix + "glob_")
     out[prefix + shape_prior.MEMBER] = state.window_chi2.copy()
+    level = state.day_level
+    out[prefix + day_level.MEMBER] = level.copy() if level.size else day_level.empty_sums(
+        state.n_bins
+    )
     own = state.obs.n[r] > 0
     out[prefix + "obs_index"] = stored_positions(pos[own], r.size)
     out.update(state.obs.to_arrays(prefix + "obs_", r[own]))
@@ -98,6 +102,7 @@ def state_from_arrays(
     out = TemporalState.empty(rows, values, own_periods, bins, flow_families, dir_families)
     out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
     out.window_chi2 = shape_prior.stored_window_chi2(arrays, prefix)
+    out.day_level = day_level.stored_sums(arrays, prefix, bins)
     own = stored_index(arrays, prefix + "obs_index", rows)
     block = ObsBlock.from_arrays(
         arrays, prefix + "obs_", own.size, periods, bins, copy, fourier

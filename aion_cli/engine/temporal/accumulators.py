@@ -27,7 +27,8 @@ Every field is a sum (or min/max), so states of disjoint time add exactly
 a node (same time span) counts and scores add, and the observation of whichever had more
 windows is kept (``observation="max"``): the two were seen in nearly the same windows, and a
 sum would divide the node's rate by the number of cells it absorbed. The map as a whole keeps
-``window_chi2``, how bursty its window totals are (:mod:`.shape_prior`; maps' sums add).
+``window_chi2``, how bursty its window totals are (:mod:`.shape_prior`), and ``day_level``,
+how its days differ in level (:mod:`.day_level`); maps' sums add (:meth:`add_map_sums`).
 """
 
 from __future__ import annotations
@@ -80,6 +81,9 @@ class TemporalState:
     dir_gain_sq: F64
     window_chi2: F64 = field(default_factory=lambda: np.zeros(2), compare=False)
     """Σ χ² and Σ degrees of freedom of the map's window totals (:mod:`.shape_prior`)."""
+    day_level: F64 = field(default_factory=lambda: np.zeros((4, 0)), compare=False)
+    """Per (kind of slot, profile bin), the days observed and sums of their rates: how much
+    whole days differ in level (:mod:`.day_level`; shape ``(4, 0)`` before any day)."""
     high_water: int = field(default=-1, compare=False, repr=False)
     """Rows from here on were never written (hold zeros): :meth:`resize` does not copy them
     (reserved capacity stays unbacked by memory) and absorbing counts writes them without
@@ -154,6 +158,7 @@ class TemporalState:
             self.dir_score.shape[1],
         )
         out.glob, out.window_chi2 = self.glob.take([0]), self.window_chi2.copy()
+        out.day_level = self.day_level.copy()
         out.fourier_loaded = self.fourier_loaded
         return out
 
@@ -218,6 +223,14 @@ class TemporalState:
             vals = {name: getattr(self, name)[sb] for name in _ADDITIVE}
             for name in _ADDITIVE:
                 np.add.at(getattr(self, name), db, vals[name])
+
+    def add_map_sums(self, other: TemporalState) -> None:
+        """Add ``other``'s sums of the map as a whole (``window_chi2``, ``day_level``): those of
+        a map of other days, merged or continued into this one."""
+        from aion_cli.engine.temporal.day_level import add_sums
+
+        self.window_chi2 += other.window_chi2
+        self.day_level = add_sums(self.day_level, other.day_level)
 
     def add_from(
         self,
@@ -295,6 +308,7 @@ class TemporalState:
         state: dict[str, Any] = {name: getattr(self, name)[:keep] for name in _ADDITIVE}
         state["obs"] = ObsBlock(*(getattr(self.obs, f)[:keep] for f in _OBS_FIELDS))
         state["glob"], state["window_chi2"] = self.glob, self.window_chi2
+        state["day_level"] = self.day_level
         state["rows"], state["high_water"] = self.n_rows, keep
         state["generation"] = self.generation
         return state
@@ -307,6 +321,7 @@ class TemporalState:
             obs=state["obs"],
             **{name: state[name] for name in _ADDITIVE},
             window_chi2=state["window_chi2"],
+            day_level=state["day_level"],
             high_water=keep,
         )
         written.resize(int(state["rows"]))
@@ -324,7 +339,7 @@ class TemporalState:
             getattr(new.obs, name)[:keep] = getattr(self.obs, name)[:keep]
         for name in _ADDITIVE:
             getattr(new, name)[:keep] = getattr(self, name)[:keep]
-        self.obs, self.window_chi2 = new.obs, new.window_chi2
+        self.obs, self.window_chi2, self.day_level = new.obs, new.window_chi2, new.day_level
         for name in _ADDITIVE:
             setattr(self, name, getattr(new, name))
         self.high_water = keep
@@ -338,6 +353,7 @@ class TemporalState:
             obs=self.obs.take(r),
             **{name: getattr(self, name)[r].copy() for name in _ADDITIVE},
             window_chi2=self.window_chi2.copy(),
+            day_level=self.day_level.copy(),
             fourier_loaded=self.fourier_loaded,
         )
 
@@ -354,8 +370,8 @@ class TemporalState:
 
     @classmethod
     def concat(cls, states: list[TemporalState]) -> TemporalState:
-        """Rows of every state in order; the global block (and ``window_chi2``) is the first
-        state's."""
+        """Rows of every state in order; the global block (and ``window_chi2``,
+        ``day_level``) is the first state's."""
         if not states:
             raise ValueError("concat needs at least one state")
         obs = ObsBlock(*(np.concatenate([getattr(s.obs, f) for s in states]) for f in _OBS_FIELDS))
@@ -363,8 +379,9 @@ class TemporalState:
             name: np.concatenate([getattr(s, name) for s in states]) for name in _ADDITIVE
         }
         loaded = all(s.fourier_loaded for s in states)
-        chi2 = states[0].window_chi2.copy()
-        return cls(states[0].glob.take([0]), obs, **joined, window_chi2=chi2, fourier_loaded=loaded)
+        chi2, level = states[0].window_chi2.copy(), states[0].day_level.copy()
+        return cls(states[0].glob.take([0]), obs, **joined, window_chi2=chi2, day_level=level,
+                   fourier_loaded=loaded)
 
     # -- persistence (:mod:`.accumulator_files`) --------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:

@@ -65,9 +65,11 @@ MEMBER = "window_chi2"
 """The map-file member (after the temporal prefix): float64[2], Σ χ² and Σ degrees of freedom."""
 
 
-def day_chi2(day: DayWindows, h: I64, n_bins: int) -> F64:
-    """[χ², degrees of freedom] of one day's window totals within its profile bins (module
-    docstring); ``h`` is each slot's profile bin."""
+def slot_units(day: DayWindows) -> tuple[F64, F64]:
+    """Each slot of the day: its total T_s (the detections of every entry in it) and its
+    units m_s (the entries observed in it, each for the part of the window it was observed
+    in; a fixed-sensor slot: the share of its window recorded), as the module docstring
+    defines them. A slot of units 0 was not observed."""
     slots = day.windows.size
     total = np.bincount(day.cnt_slot, weights=day.cnt_values.sum(axis=1), minlength=slots)
     # entries observed per slot, each for the part of the window it was observed in
@@ -76,6 +78,13 @@ def day_chi2(day: DayWindows, h: I64, n_bins: int) -> F64:
     # a slot with detections was observed by the entries that had them (one, if none is held)
     shares = day.slot_shares()  # a fixed-sensor window: the share of it recorded
     units = np.where(day.fixed, shares, np.where((total > 0) & (entries <= 0), 1.0, entries))
+    return total.astype(np.float64, copy=False), units.astype(np.float64, copy=False)
+
+
+def day_chi2(day: DayWindows, h: I64, n_bins: int) -> F64:
+    """[χ², degrees of freedom] of one day's window totals within its profile bins (module
+    docstring); ``h`` is each slot's profile bin."""
+    total, units = slot_units(day)
     seen = units > 0
     cell = (day.fixed.astype(np.int64) * n_bins + h)[seen]
     t, m = total[seen], units[seen]
