@@ -77,6 +77,9 @@ class EntryTable:
     """How bursty the map's window totals are (φ_T, ``Predictor.phi_total``): what
     :func:`aggregate_table` widens a sum of places' variances by (1: the places' counts
     taken as independent, as in a historical table, which has no spread)."""
+    level_variance: float = 0.0
+    """How much a day's level varies around the forecast's (``Predictor.level_variance``):
+    :func:`aggregate_table` adds it times a group's summed flow squared (0: no such term)."""
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -170,6 +173,7 @@ def _entry_table(
         bin_cos=np.concatenate([bin_cos, np.zeros((extra, state.bins))]),
         bin_sin=np.concatenate([bin_sin, np.zeros((extra, state.bins))]),
         total_dispersion=predictor.phi_total,
+        level_variance=predictor.level_variance,
     )
 
 
@@ -179,8 +183,9 @@ def aggregate_table(
     """Sum the node rows of ``table`` into the graph's rooms (or buildings, via rooms). A
     group's ``flow_var`` is its places' variances plus their covariance, from how bursty the
     map's window totals are (``table.total_dispersion``, the map's total flow the window's
-    reference: :func:`~aion_cli.engine.temporal.totals.sum_variance`), never less than the
-    independent sum; the flows are plain sums."""
+    reference: :func:`~aion_cli.engine.temporal.totals.sum_variance`) and how much whole
+    days differ in level (``table.level_variance``), never less than the independent sum;
+    the flows are plain sums."""
     if level not in ("rooms", "buildings"):
         raise ValueError(f"level must be 'rooms' or 'buildings', got {level!r}")
     parent = parent_ids(graph.places.ids, graph.places.parent, table.node_id)
@@ -200,7 +205,8 @@ def aggregate_table(
     speed_sum, speed_n = sums[:, b + 1 : 2 * b + 1], sums[:, 2 * b + 1 : 3 * b + 1]
     historical = bool(np.all(np.isnan(table.flow_var)))
     flow_var = np.full(len(ids), np.nan) if historical else sums[:, 3 * b + 1]
-    if not historical and table.total_dispersion > 1.0 and len(ids):
+    widened = table.total_dispersion > 1.0 or table.level_variance > 0.0
+    if not historical and widened and len(ids):
         flow_var = _grouped_variance(table, parent, ids)
     heading_cos = sums[:, 3 * b + 2 : 4 * b + 2] if headings else None
     heading_sin = sums[:, 4 * b + 2 : 5 * b + 2] if headings else None
@@ -239,7 +245,7 @@ def _grouped_variance(table: EntryTable, parent: U64, ids: U64) -> F64:
     group = np.searchsorted(ids, parent[member])
     return sum_variance(
         table.flow[member], table.flow_var[member], group, len(ids),
-        float(np.nansum(table.flow)), table.total_dispersion,
+        float(np.nansum(table.flow)), table.total_dispersion, table.level_variance,
     )
 
 

@@ -132,8 +132,9 @@ def spread_of(
     (``query.aggregate_table``): the places' variances plus their covariance from how bursty
     the map's window totals are (:func:`~aion_cli.engine.temporal.totals.sum_variance`, the
     window's reference total the sum of its pairs' means: what the test observed then),
-    summed over the hour's windows. Detections at no map place count toward no pair, nor
-    toward an hour."""
+    summed over the hour's windows, and the hour's sum widened by how much whole days differ
+    in level (``Predictor.level_variance`` times the hour's mean squared: its windows share
+    the day's level). Detections at no map place count toward no pair, nor toward an hour."""
     from aion_cli.engine.temporal.totals import sum_variance
 
     place, window, n_windows = pairs
@@ -148,20 +149,22 @@ def spread_of(
     n_hours = int(hour.max()) + 1 if hour.size else 0
     w = window[judged]
     per_window: F64 = np.bincount(w, expected[judged], minlength=n_windows).astype(np.float64)
+    predictor = state.predictor()[1]
     window_var = sum_variance(expected[judged], variance[judged], w, n_windows, per_window,
-                              state.predictor()[1].phi_total)
+                              predictor.phi_total)
 
     def per_hour(values: F64) -> F64:
         out: F64 = np.bincount(hour, values, minlength=n_hours).astype(np.float64)
         return out
 
     watched = np.bincount(hour[w], minlength=n_hours) > 0
+    hour_mean = per_hour(per_window)
     window_counts: F64 = np.bincount(w, counts[judged], minlength=n_windows).astype(np.float64)
     return {
         "place_windows": spread_coverage(counts, expected, variance),
         "hours": spread_coverage(
-            per_hour(window_counts)[watched], per_hour(per_window)[watched],
-            per_hour(window_var)[watched],
+            per_hour(window_counts)[watched], hour_mean[watched],
+            (per_hour(window_var) + predictor.level_variance * hour_mean * hour_mean)[watched],
         ),
     }
 

@@ -25,6 +25,7 @@ from aion_cli.engine.temporal.absorption import absorb, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families, dispersion
 from aion_cli.engine.temporal.components import FremenComponents
+from aion_cli.engine.temporal.day_level import level_variance
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
@@ -279,6 +280,9 @@ class Predictor:
     phi_total: float = 1.0
     """How bursty the map's window totals are (``shape_prior.overdispersion``): the spread
     of a sum of places (:mod:`~aion_cli.engine.temporal.totals`)."""
+    level_variance: float = 0.0
+    """How much a day's level varies around the forecast's (``day_level.level_variance``):
+    a sum of places of mean S adds it times S² to its variance."""
 
     @classmethod
     def of(
@@ -323,7 +327,8 @@ class Predictor:
             phi_static,
             unseen_own,
             phi_shape,
-            overdispersion(state.window_chi2),
+            phi_total := overdispersion(state.window_chi2),
+            level_variance(state.day_level, phi_total),
         )
 
     def _flow_choice(self, e: I64, h: I64) -> I64:

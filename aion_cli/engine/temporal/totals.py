@@ -24,9 +24,11 @@ and the pairs adding their covariance. It is never narrower than the independent
 map is about φ_T · M, the dispersion the map measured. Sums over several windows (an hour)
 add the windows' variances: clusters are counted within a window.
 
-What it leaves out: φ_T is measured within a day and profile bin, so a whole day busier or
-quieter than the forecast (Lincoln's 2017-05-31 held a third of the detections the other
-days foretold) is outside the band.
+φ_T is measured within a day and profile bin, so a whole day busier or quieter than the
+forecast is outside that band: a day's level factor, of variance c around the forecast's
+(:mod:`~aion_cli.engine.temporal.day_level`), multiplies every place of the day at once, so
+a sum of mean S adds c · S² (``level``); an hour adds it once for the sum of its windows,
+whose level is the same day's.
 """
 
 from __future__ import annotations
@@ -44,19 +46,24 @@ def sum_variance(
     n_groups: int,
     reference: npt.ArrayLike,
     phi_total: float,
+    level: float = 0.0,
 ) -> F64:
     """The variance of each group's summed count (module docstring): ``mean`` and
     ``variance`` per place, ``group`` each place's group (0 .. ``n_groups`` − 1, every place
     in one window), ``reference`` the mean total M of the window the map's dispersion
-    ``phi_total`` describes (a scalar, or one per group), float64[n_groups]. Places whose
-    mean or variance is not finite count as 0, as in the groups' summed means."""
+    ``phi_total`` describes (a scalar, or one per group), ``level`` the variance of the
+    day's level factor (module docstring: each group adds it times its summed mean squared),
+    float64[n_groups]. Places whose mean or variance is not finite count as 0, as in the
+    groups' summed means."""
     mu = np.nan_to_num(np.asarray(mean, dtype=np.float64))
     var = np.nan_to_num(np.asarray(variance, dtype=np.float64))
     independent = np.bincount(group, var, minlength=n_groups).astype(np.float64)
-    if phi_total <= 1.0:
-        return independent
     # float64 whatever the input: bincount of no places returns int64 zeros
     total = np.bincount(group, mu, minlength=n_groups).astype(np.float64, copy=False)
+    if level > 0.0:
+        independent += level * total * total
+    if phi_total <= 1.0:
+        return independent
     own = np.bincount(group, mu * mu, minlength=n_groups).astype(np.float64, copy=False)
     m = np.broadcast_to(np.asarray(reference, dtype=np.float64), total.shape)
     pairs = np.clip(total * total - own, 0.0, None)  # rounding: never below the independent sum
