@@ -340,7 +340,7 @@ def test_subprocess_bad_inputs_are_one_line_exit_2(office: Office, tmp_path: Pat
     from concurrent.futures import ThreadPoolExecutor
 
     newer = tmp_path / "newer.aion"
-    _rewrite_manifest(office.map, newer, version="3.0")  # this aion writes format 2.0
+    _rewrite_manifest(office.map, newer, version="3.0")  # this aion writes format 2.1
     cases = {
         "25:99": ["predict", office.map, "--time", "25:99"],
         "3.0": ["predict", newer],

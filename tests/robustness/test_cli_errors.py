@@ -63,7 +63,7 @@ def _versioned_map(office: Office, folder: Path, name: str, version: str) -> Pat
 
 
 def _newer_map(office: Office, folder: Path) -> Path:
-    return _versioned_map(office, folder, "newer.aion", "3.0")  # this aion writes 2.0
+    return _versioned_map(office, folder, "newer.aion", "3.0")  # this aion writes 2.1
 
 
 def _older_map(office: Office, folder: Path) -> Path:

@@ -1,6 +1,6 @@
-"""A map of a newer minor format (2.7 here; this aion writes 2.0) is read by queries, which
+"""A map of a newer minor format (2.7 here; this aion writes 2.1) is read by queries, which
 ignore what they do not know, but refused by ``build --map`` and ``merge``: they would write it
-back as 2.0 and drop whatever the newer aion stored, without a word."""
+back as 2.1 and drop whatever the newer aion stored, without a word."""
 
 from __future__ import annotations
 
