@@ -174,6 +174,10 @@ class BuildReport:
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
     #: logs start before a continued map's data ends (``log_times.overlap_note``)
     first_detection_ns: int | None = None
+    #: the earliest time of the data a continued map's closed windows would refuse, per kind
+    #: ("detection": stamps, "scene graph"; not in the JSON): a parallel build's fold checks
+    #: its shards by them as a sequential build checks its batches (``shard_fold``)
+    data_starts: dict[str, int] = field(default_factory=dict)
     #: per detection topic, its ``TopicCounts`` (not in the JSON): a parallel build adds its
     #: shards' up and warns of off stamps once, from the sums (``shard_reports``)
     stamp_counts: dict[str, Any] = field(default_factory=dict)

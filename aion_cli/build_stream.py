@@ -310,8 +310,13 @@ class StreamStep:
         check_after_open`; detections, ``xyz``, that repeat a recording the map holds are
         refused as such: :func:`aion_cli.recording_twins.check_batch`); the ``first``
         detections are checked for the map's data (:func:`aion_cli.log_times.overlap_note`;
-        a parallel build's parent checks its shards')."""
-        if self._map_open is None or len(t_ns) == 0:
+        a parallel build's parent checks its shards'). Every build keeps the earliest time of
+        each ``what`` (``report.data_starts``): a shard's fold checks it by the same rule."""
+        if len(t_ns) == 0:
+            return
+        starts = self.report.data_starts  # a shard's, for its fold's check (shard_fold)
+        starts[what] = min(starts.get(what, int(t_ns.min())), int(t_ns.min()))
+        if self._map_open is None:
             return
         from aion_cli.engine.windows import window_ns
 

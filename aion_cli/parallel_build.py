@@ -185,6 +185,7 @@ class ParallelBuild:
                 self.config, part, first, seed, static_tf, recordings,
                 opens_map=previous is None and group == shards[0][0],
                 map_inputs=tuple(e.name for e in before.inputs) if before is not None else (),
+                map_open_ns=_open_start(previous),
             )
             for i, ((group, part, first), seed, fill) in enumerate(
                 zip(shards, seeds, fills, strict=True)
@@ -378,3 +379,14 @@ def _window_ns(config: ModelConfig) -> int:
     from aion_cli.engine.windows import window_ns
 
     return window_ns(config.window_s)
+
+
+def _open_start(previous: MapState | None) -> int | None:
+    """The start of a continued map's open window (None: a new map, or none open): what its
+    shards' data may not reach back before (``shard_fold._check_order``), as a sequential
+    build's batches may not (``build_stream._check_after_map``)."""
+    if previous is None or previous.open_window is None:
+        return None
+    from aion_cli.engine.windows import window_ns
+
+    return previous.open_window * window_ns(previous.config.window_s)

@@ -61,6 +61,9 @@ class ShardTask:
     # the names of the continued map's inputs: a shard out of time order is refused with the
     # command that builds them and the logs at once (aion_cli.log_times.out_of_order_error)
     map_inputs: tuple[str, ...] = ()
+    # the continued map's open window's start (None: a new map): the shard's detections and
+    # scene graphs before it are refused, as a sequential build refuses them
+    map_open_ns: int | None = None
 
 
 @dataclass
@@ -259,35 +262,51 @@ def learn_rest(
 
 
 def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
-    """A continued map has closed every window before its open one: logs with data there
-    must come in time order (as a sequential build's ``_check_after_map`` says)."""
-    from aion_cli.log_times import out_of_order_error
+    """The shard's detections and scene graphs (their own times, ``report.data_starts``;
+    not its first message, which may be a transform) judged as a sequential build judges its
+    batches: before a continued map's open window (``task.map_open_ns``) they are refused
+    (``_check_after_map``); before the open window of the map so far, with the logs' own
+    clock a simulation's from 0, the clock is the reason (``_check_clocks``)."""
+    from aion_cli.log_times import other_clock_error
 
-    start = result.report.start_ns
-    if acc.open_window is None or start is None:
+    starts = result.report.data_starts
+    if not starts:
+        return
+    if task.map_open_ns is not None:
+        _check_after_map(result, task, task.map_open_ns)
+    first = min(starts.values())
+    if acc.open_window is None or len(task.opts.logs) < 2:
         return
     open_start = acc.open_window * acc.window_ns
-    if start < open_start:
-        from aion_cli.log_times import other_clock_error
-
-        stamped = result.report.first_detection_ns
-        clocks = other_clock_error(_names(task.logs), start, open_start, stamped)
+    if first < open_start:
+        clocks = other_clock_error(_names(task.logs), result.report.start_ns, open_start, first)
         if clocks is not None:  # the logs' clock from 0, the map's windows from stamps
             raise clocks
+
+
+def _check_after_map(result: ShardResult, task: ShardTask, open_start: int) -> None:
+    """The shard's detections or scene graphs before a continued map's open window (from
+    ``open_start``): refused, with the command that builds the map's inputs and the logs at
+    once (:func:`aion_cli.log_times.out_of_order_error`), or as a recording the map holds."""
+    from aion_cli.log_times import other_clock_error, out_of_order_error
+
+    early = {what: t for what, t in result.report.data_starts.items() if t < open_start}
+    if not early:
+        return
+    what = "detection" if "detection" in early else min(early, key=early.__getitem__)
+    clocks = other_clock_error(_names(task.logs), result.report.start_ns, open_start, early[what])
+    if clocks is not None:  # the logs' clock from 0, the map's windows from stamps
+        raise clocks
+    continued = task.opts.continue_from
+    name = continued.name if continued is not None else "the map"
+    if "detection" in early:
         from aion_cli.recording_twins import check_continued
 
-        continued = task.opts.continue_from
-        name = continued.name if continued is not None else "the map"
         check_continued(task.recordings, name, _names(task.logs), result.report.sketch)
-        early = stamped is not None and stamped < open_start  # as a sequential build says
-        raise out_of_order_error(
-            f"the {'detections' if early else 'messages'} of {_names(task.logs)}",
-            stamped if stamped is not None and early else start,
-            open_start,
-            name,
-            task.map_inputs,
-            task.opts.logs,
-        )
+    raise out_of_order_error(
+        f"the {what}s of {_names(task.logs)}", early[what], open_start, name, task.map_inputs,
+        task.opts.logs,
+    )
 
 
 def rebuild_onto(state: MapState, task: ShardTask, before: Folded | None = None) -> ShardResult:

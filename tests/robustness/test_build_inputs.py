@@ -120,6 +120,40 @@ def test_logs_out_of_time_order_name_the_rebuild_in_both_routes(
     assert target.read_bytes() == before
 
 
+def test_both_routes_refuse_a_log_by_its_datas_times_not_its_first_message(
+    tmp_path: Path,
+) -> None:
+    """The map's window 08:10 (of a.mcap, 08:00..08:20) is open. ``tf.mcap``'s transforms
+    start at 08:01:40, its detections at 08:21:40: a sequential build took it (transforms
+    are not window data), a parallel one refused it by its first message. ``stamps.mcap``
+    is logged from 08:21:40 but stamped 800 s earlier, from 08:08:20: a sequential build
+    refused it (those detections would fall in closed windows), a parallel one took it,
+    dropping them. Both routes now judge a log by its detections' stamps: the same
+    outcome, and the same map where it is taken."""
+    first = write_log(tmp_path / "a.mcap", walk(1200))
+    later = write_log(tmp_path / "later.mcap", walk(600, start_s=14400, xyz=(2.2, 0.1, 0.0)))
+    transforms = [robot_tf(T0 + k * S, "cam") for k in range(100, 1400, 10)]
+    tf_first = write_log(tmp_path / "tf.mcap", [*transforms, *walk(100, 1300, (3.2, 0.1, 0.0))])
+    lagging = [person(T0 + (1300 + k) * S, (3.3, 0.1, 0.0), header_ns=T0 + (500 + k) * S)
+               for k in range(100)]  # fmt: skip
+    stamped_early = write_log(tmp_path / "stamps.mcap", lagging)
+    target = tmp_path / "m.aion"
+    build_json(first, "-o", target)
+    built = {}
+    for workers in ("1", "2"):
+        out = tmp_path / f"tf-{workers}.aion"
+        report = build_json(later, tf_first, "--map", target, "-o", out, "--workers", workers)
+        assert report["detections"]["used"] == 700
+        built[workers] = map_arrays(out)
+        refused = run("build", later, stamped_early, "--map", target, "--workers", workers,
+                      "-o", tmp_path / f"stamps-{workers}.aion")  # fmt: skip
+        fails(refused, "start at 2026-11-23 08:08:20 UTC, but m.aion has already closed "
+              "every window before 2026-11-23 08:10:00 UTC")  # fmt: skip
+        assert "the detections of" in refused.stderr
+        assert not (tmp_path / f"stamps-{workers}.aion").exists()
+    assert_same_arrays(built["1"], built["2"])
+
+
 def test_a_log_overlapping_the_maps_data_in_its_open_window_is_noted(tmp_path: Path) -> None:
     """A log that starts before the map's data ends but inside its open window is accepted,
     and the map then differs from one build of both (its detections come after the map's,
