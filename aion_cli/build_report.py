@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from aion_cli.build_hints import no_detection_hint
 from aion_cli.build_plausibility import fast_people_warning
 from aion_cli.detection_feed import HEADING_SOURCES
 from aion_cli.engine.detection_sketch import DetectionSketch
@@ -47,37 +48,6 @@ LOSS_WARN_SHARE = 0.5
 after decoding for any reason: no transform, a non-finite or out-of-range position, a closed
 window) gets a warning with the counts, even with ``-q``. Messages that cannot be decoded, or
 whose log times are stray, are warned about separately, whatever their number."""
-
-def _class_hint(topics: list[str]) -> str:
-    """The hint of a build whose every detection the class filter dropped: what it keeps, and
-    how to read a tracker whose people have another class or none (a mapping, which has no
-    class filter unless it gives one)."""
-    topic = topics[0] if len(topics) == 1 else "TOPIC"
-    return (
-        "aion keeps the vision_msgs detections of class 'person' and the ZED objects labelled "
-        "'Person' (or unlabelled) only; to read other classes or none, read the topic with a "
-        f"mapping (`aion info LOG --suggest-mapping {topic}` writes one, without a class "
-        "filter; add filter = { field = ..., equals = [...] } to keep some classes); "
-    )
-
-
-def _no_detection_hint(topics: list[str], dropped: dict[str, int]) -> str:
-    """The hint of a build that read no usable person, by why: the class filter dropped them
-    (:func:`_class_hint`); every item's arrays were shorter than the mapping's paths index
-    (``short_array``: the items are there, so "the topics carry no detections" misled);
-    otherwise the topics carry nobody."""
-    if dropped.get("class"):
-        return _class_hint(topics)
-    if {k for k, n in dropped.items() if n} == {"short_array"}:
-        topic = topics[0] if len(topics) == 1 else "TOPIC"
-        return (
-            f"the topics carry {dropped['short_array']:,} items, but each one's array is shorter "
-            "than an index in the --detections-mapping's paths (pos[0..1] of an empty "
-            "pos[]); check those indices against the messages (`aion info LOG "
-            f"--suggest-mapping {topic}` shows their fields); "
-        )
-    return "the topics carry no detections (choose other topics with --detections-topic); "
-
 
 #: Drops of detections once read (the class filter of vision_msgs is a choice, not a loss).
 _DETECTION_DROPS = frozenset({"no_transform", "nan", "out_of_range", "before_window"})
@@ -143,6 +113,9 @@ class BuildReport:
     speed_micro: int = 0  # µm/s, over the detections with a speed (DetectionCounts)
     speed_n: int = 0
     empty_messages: int = 0  # detection messages that held no detection (DetectionCounts)
+    #: items a mapping's filter dropped, by the value its field held (not in the JSON; the
+    #: error of a build that kept none names them: DetectionCounts.filter_seen)
+    filter_seen: dict[str, int] = field(default_factory=dict)
     detection_decoding: dict[str, dict[str, Any]] = field(default_factory=dict)
     by_topic: dict[str, dict[str, Any]] = field(default_factory=dict)
     time_dropped: dict[str, dict[str, int]] = field(default_factory=dict)
@@ -315,6 +288,7 @@ def record_detections(
     report.headings = dict(c.headings)
     report.speed_micro, report.speed_n = c.speed_micro, c.speed_n
     report.empty_messages = c.empty_messages
+    report.filter_seen = dict(c.filter_seen)
     fast = fast_people_warning(report)
     if fast is not None:
         report.warnings.append(fast)
@@ -433,7 +407,7 @@ def check_usable(
                 if read_warnings
                 else ""
             )
-            + _no_detection_hint(report.detection_topics, c.dropped)
+            + no_detection_hint(report.detection_topics, c.dropped, c.filter_seen)
             + written,
         )  # fmt: skip
     hint = written
@@ -467,4 +441,3 @@ def unread_detections(
         sum(stats.values()) for name, stats in report.time_dropped.items() if name in topics
     )
     return expected - decoded - dropped, expected, list(warnings)
-

@@ -113,6 +113,9 @@ class DetectionCounts:
     empty_messages: int = 0
     """Messages that decoded and held no detection (at least: see :meth:`count_empty`): a
     tracker that publishes them is not silent when nobody is there."""
+    filter_seen: Counter[str] = field(default_factory=Counter)
+    """Items a mapping's filter dropped, by the value its field held (``kind = "robot"``;
+    a few values only): what the error of a build that kept none names."""
 
     def count_empty(self, frames: Any) -> None:
         """Count the messages of decoded ``frames`` that held no detection: those without a
@@ -120,7 +123,11 @@ class DetectionCounts:
         been a message's only item), so the count never takes a message of people for empty."""
         rows = np.bincount(frames.msg_index, minlength=frames.n_messages)
         without = int(np.count_nonzero(rows[: frames.n_messages] == 0))
-        left_out = sum(int(n) for n in frames.filtered.values())  # undecodable: per message
+        from aion_cli.formats.detections.generic import SEEN
+
+        left_out = sum(  # undecodable: per message; a value seen is its reason's again
+            int(n) for k, n in frames.filtered.items() if not k.startswith(SEEN)
+        )
         self.empty_messages += max(0, without - left_out)
 
     def topic(self, name: str) -> TopicCounts:
@@ -135,14 +142,27 @@ class DetectionCounts:
         a damaged payload (``undecodable``) is counted per message, its detections unknown
         (dropped as ``undecodable_messages``, not read); items a filter left out (``class``,
         ``filter``, ``marker_*``, ``short_array``) were read (read = used + dropped) and are
-        dropped by their reason."""
+        dropped by their reason; a value a filter met (:data:`~aion_cli.formats.detections.
+        generic.SEEN`) is counted in ``filter_seen``, not again."""
+        from aion_cli.formats.detections.generic import SEEN
+
         for reason, n in filtered.items():
-            if reason == DECODE_FAILURE:
+            if reason.startswith(SEEN):
+                self.see(reason.removeprefix(SEEN), n)
+            elif reason == DECODE_FAILURE:
                 self.dropped[UNDECODABLE_MESSAGES] += n
                 topic.undecodable += n
             else:
                 self.read += n
                 self.dropped[reason] += n
+
+    def see(self, value: str, n: int) -> None:
+        """Count ``n`` items a filter dropped with ``value`` (only the first
+        :data:`~aion_cli.formats.detections.generic.SEEN_VALUES` values)."""
+        from aion_cli.formats.detections.generic import SEEN_VALUES
+
+        if value in self.filter_seen or len(self.filter_seen) < SEEN_VALUES:
+            self.filter_seen[value] += n
 
     def passed_filters(self) -> int:
         """The detections read that the decoders' filters kept: ``read`` less the drops

@@ -205,6 +205,8 @@ class TopicFeeders:
             out.speed_micro += counts.speed_micro
             out.speed_n += counts.speed_n
             out.empty_messages += counts.empty_messages
+            for value, n in counts.filter_seen.items():
+                out.see(value, n)
             out.topics.update(counts.topics)
             out.no_transform_why = out.no_transform_why or counts.no_transform_why
         return out

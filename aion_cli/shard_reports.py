@@ -53,6 +53,8 @@ def counts_of(report: BuildReport) -> Any:
     for stats in report.by_topic.values():
         for reason, n in (stats.get("dropped") or {}).items():
             counts.dropped[reason] += int(n)
+    for value, n in report.filter_seen.items():
+        counts.see(value, n)
     return counts
 
 
@@ -103,6 +105,7 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         out.speed_micro += p.speed_micro
         out.speed_n += p.speed_n
         out.empty_messages += p.empty_messages
+        _add(out.filter_seen, p.filter_seen)
         out.graph_messages += p.graph_messages
         out.graph_skipped += p.graph_skipped
         out.graph_decoded += p.graph_decoded

@@ -8,6 +8,7 @@ This path loops in Python per item; it is the fallback, the fast path is :mod:`.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,6 +30,26 @@ from aion_cli.formats.detections.paths import (
 
 NAN_Q = (math.nan, math.nan, math.nan, math.nan)
 NAN_V = (math.nan, math.nan, math.nan)
+
+SEEN = "seen: "
+"""The prefix of a ``filtered`` key that counts the items a filter dropped with one value of
+its field (``seen: kind = "robot"``), beside the reason's count: what a build that kept none
+names in its error (:meth:`aion_cli.detection_counts.DetectionCounts.add_decoded`)."""
+SEEN_VALUES = 8
+"""The distinct values kept per decode (a filter on an id would see thousands)."""
+_SEEN_SEP = "\x1f"
+
+
+def dropped_with(reason: str, field: str, value: Any) -> str:
+    """The drop ``reason`` of a filter that met ``value`` in ``field``: :meth:`Rows.drop`
+    counts the reason and, under :data:`SEEN`, the value."""
+    if isinstance(value, (bool, np.bool_)):
+        shown = "true" if value else "false"
+    elif isinstance(value, str):
+        shown = json.dumps(value if len(value) <= 40 else value[:40] + "...", ensure_ascii=False)
+    else:
+        shown = str(value)
+    return f"{reason}{_SEEN_SEP}{field} = {shown}"
 
 
 def track_id_of(value: Any) -> int:
@@ -62,6 +83,7 @@ class Rows:
     quat: list[tuple[float, float, float, float]] = field(default_factory=list)
     track: list[int] = field(default_factory=list)
     filtered: dict[str, int] = field(default_factory=dict)
+    seen_values: int = 0  # the distinct values counted under SEEN in ``filtered``
 
     def add(
         self,
@@ -82,7 +104,15 @@ class Rows:
         self.track.append(track)
 
     def drop(self, reason: str, n: int = 1) -> None:
+        """Count ``n`` items dropped for ``reason``; one of :func:`dropped_with` also counts
+        its value (under :data:`SEEN`, the first :data:`SEEN_VALUES` values only)."""
+        reason, _, value = reason.partition(_SEEN_SEP)
         self.filtered[reason] = self.filtered.get(reason, 0) + n
+        if value:
+            key = SEEN + value
+            if key in self.filtered or self.seen_values < SEEN_VALUES:
+                self.seen_values += key not in self.filtered
+                self.filtered[key] = self.filtered.get(key, 0) + n
 
 
 Item = Any

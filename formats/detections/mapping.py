@@ -53,7 +53,7 @@ from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import ConfigError
 from aion_cli.formats.detections.adapter import DetectionAdapter
-from aion_cli.formats.detections.generic import ItemSpec, Keep
+from aion_cli.formats.detections.generic import ItemSpec, Keep, dropped_with
 from aion_cli.formats.detections.paths import FieldPath
 from aion_cli.formats.raw import normalize_msgtype
 from aion_cli.formats.toml_files import read_toml_text
@@ -257,7 +257,8 @@ def _filter(f: Any, where: str) -> Keep:
     wanted = tuple(raw) if isinstance(raw, list) else (raw,)
 
     def keep(item: Any) -> str | None:
-        return None if path.get(item) in wanted else "filter"
+        value = path.get(item)
+        return None if value in wanted else dropped_with("filter", path.text, value)
 
     return keep
 

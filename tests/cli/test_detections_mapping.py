@@ -170,11 +170,11 @@ def readme_mapping() -> str:
     return "\n".join(blocks)
 
 
-def two_mapped_topics(path: Path) -> Path:
+def two_mapped_topics(path: Path, t0: int = T0) -> Path:
     """One ROS 2 MCAP with the README's two examples: ``leg_tracker/msg/Person`` on /people
     (headerless, positions in base_laser; one person walking +y) and a simulator's
     ``my_sim/msg/AgentArray`` on /sim/agents (a person walking -x with velocity (-1, 0),
-    and a robot that the filter drops)."""
+    and a robot that the filter drops); ten messages on each, one a second from ``t0``."""
     from aion_cli.formats.writers import LogWriter
 
     own = OwnTypes(AGENT_TYPES)
@@ -182,7 +182,7 @@ def two_mapped_topics(path: Path) -> Path:
     msgs = []
     with LogWriter(path.with_suffix(".tmp.mcap"), "mcap") as w:  # for its CDR of Person
         for k in range(10):
-            t = T0 + k * S
+            t = t0 + k * S
             data = w.serialize(PERSON, {"pose": {"position": {"x": 2.0, "y": 0.5 * k}}, "id": 7})
             msgs.append(Message("/people", PERSON, data, t))
             vector = T["geometry_msgs/msg/Vector3"]
@@ -216,6 +216,34 @@ def test_the_readme_mapping_examples_read_both_topics(tmp_path: Path) -> None:
     # alice heads π (velocity -x) -> bin 0; the Person walks +y -> bin 6
     assert counts.sum(axis=0).tolist() == [10, 0, 0, 0, 0, 0, 9, 0]
     assert nodir.sum() == 1
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_filter_that_drops_every_item_names_the_values_it_saw(
+    tmp_path: Path, workers: str
+) -> None:
+    """A filter on ``kind`` that lists "pedestrian" where the agents are "person" and
+    "robot": every item dropped, and the hint said "the topics carry no detections". It
+    names the filter, how many items it dropped and the values ``kind`` held, with their
+    counts (two logs a day apart, 10 messages of a person and a robot each), in one process
+    and in two (one shard per log)."""
+    logs = [two_mapped_topics(tmp_path / "mon.mcap"),
+            two_mapped_topics(tmp_path / "tue.mcap", T0 + 86_400 * S)]  # fmt: skip
+    mapping = tmp_path / "agents.toml"
+    mapping.write_text(f'[[topic]]\ntopic = "/sim/agents"\nmsgtype = "{AGENTS}"\n'
+                       'array = "agents"\nposition = "position[0..2]"\nid = "name"\n'
+                       'filter = { field = "kind", equals = ["pedestrian"] }\n')  # fmt: skip
+    out = tmp_path / "agents.aion"
+    result = run("build", *logs, "-o", out, "--detections-mapping", mapping,
+                 "--map-frame", "base_laser", "--workers", workers)  # fmt: skip
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, "no people detection in the 20 messages of "
+                          "/sim/agents (dropped: filter 40)")  # fmt: skip
+    assert "carry no detections" not in result.stderr
+    assert "hint: the --detections-mapping's filter dropped all 40 items; its field held " \
+        'kind = "person" (20), kind = "robot" (20); list the values' in result.stderr  # fmt: skip
+    assert "--suggest-mapping /sim/agents" in result.stderr
+    assert not out.exists()
 
 
 def test_suggested_mapping_of_an_agent_array_builds(tmp_path: Path) -> None:

@@ -86,7 +86,45 @@ def test_custom_type_known_answers(store: Any) -> None:
     np.testing.assert_array_equal(got.track_id, [hash_id("a"), hash_id("c")])
     np.testing.assert_array_equal(got.t_ns, [10_000_000_005, 11_000_000_000])
     assert got.frame_names() == ["odom", "odom"]
-    assert got.filtered == {"filter": 1}
+    assert got.filtered == {"filter": 1, 'seen: label = "dog"': 1}  # the value it dropped
+
+
+def test_a_filter_counts_the_first_values_it_dropped(store: Any) -> None:
+    """A filter on ``uid`` that keeps none of 10 tracks (uids u0..u9, labels alternating):
+    every track dropped as ``filter``; the first 8 uids counted by value (a filter on an id
+    would see thousands); the build's hint names them and the 2 of other values."""
+    from aion_cli.build_hints import no_detection_hint
+    from aion_cli.detection_counts import DetectionCounts
+
+    T = store.types
+    Time = T["builtin_interfaces/msg/Time"]
+    header = T["std_msgs/msg/Header"](stamp=Time(sec=10, nanosec=0), frame_id="odom")
+    tracks = [
+        T["my_tracker/msg/Track"](
+            label="person" if k % 2 else "dog", position=np.zeros(3, np.float32),
+            vel=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0), uid=f"u{k}", header=header,
+        )
+        for k in range(10)
+    ]  # fmt: skip
+    msg = T[MSGTYPE](header=header, tracks=tracks)
+    data = bytes(store.serialize_cdr(msg, MSGTYPE))
+    mapping = MAPPING.replace('field = "label", equals = ["person", "pedestrian"]',
+                              'field = "uid", equals = ["nobody"]')  # fmt: skip
+    (m,) = load_mapping(mapping)
+    got = m.adapter(store).decode([RawMessage("/tracks", MSGTYPE, 77, data, "cdr")] * 2)
+    assert len(got) == 0
+    firsts = {f'seen: uid = "u{k}"': 2 for k in range(8)}
+    assert got.filtered == {"filter": 20, **firsts}
+    counts = DetectionCounts()
+    counts.add_decoded(counts.topic("/tracks"), got.filtered)
+    assert (counts.read, dict(counts.dropped)) == (20, {"filter": 20})
+    hint = no_detection_hint(["/tracks"], counts.dropped, counts.filter_seen)
+    assert hint.startswith(
+        'the --detections-mapping\'s filter dropped all 20 items; its field held uid = "u0" '
+        '(2), uid = "u1" (2),'
+    )
+    assert 'uid = "u7" (2), 4 of other values; list the values' in hint
+    assert "u8" not in hint
 
 
 def test_frame_override_and_log_time_stamps(store: Any, tmp_path: Path) -> None:
