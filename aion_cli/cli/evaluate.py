@@ -372,7 +372,9 @@ def holdout(
     opts = BuildOptions(logs=logs, detection_topics=detection_topics,
                         map_frame=map_frame_of(map_frame, map_path), base_frame=base_frame,
                         observed=spans, detections_mapping=detections_mapping,
-                        graph_topic=graph_topic, log_format=log_format)
+                        graph_topic=graph_topic, log_format=log_format,
+                        # as typed: a span apart from the test logs is warned of, as by build
+                        observed_typed=tuple(zip(observed, spans, strict=True)))
     result = run_holdout(map_path, opts, radius, progress=note)
     for line in (*result.notes, spread_note(result.spread)):
         if line is not None:
