@@ -85,11 +85,10 @@ def fitted_kappa(counts: F64, parent: F64) -> float:
     # the likelihood depends only on how often each (count, parent share) pair and each
     # entry total occur: evaluated once per distinct value, weighted by how often it occurs
     # (in sorted order, so the sums do not depend on the entries' order either)
-    pairs, pair_times = np.unique(c[row, col] + 1j * p[row, col], return_counts=True)
+    pair_count, pair_share, pair_times = _distinct_pairs(c[row, col], p[row, col])
     totals, total_times = np.unique(n, return_counts=True)
-    pair_count, pair_share = pairs.real.copy(), pairs.imag.copy()
     entries = float(n.size)
-    k, t = pairs.size, totals.size
+    k, t = pair_count.size, totals.size
     # every ln Γ of a step in one call (it is elementwise: the same values as one call per
     # argument, a quarter of the numpy calls; issue 15: 64 calls per day close before)
     at = np.empty(2 * k + t + 1)
@@ -107,6 +106,20 @@ def fitted_kappa(counts: F64, parent: F64) -> float:
 
     lo, hi = (float(np.log(b)) for b in KAPPA_RANGE)
     return float(np.exp(_golden_max(log_likelihood, lo, hi, 0.03)))
+
+
+def _distinct_pairs(count: F64, share: F64) -> tuple[F64, F64, npt.NDArray[np.intp]]:
+    """The distinct (count, share) pairs, sorted by count then share, and how often each
+    occurs: what ``np.unique(count + 1j * share, return_counts=True)`` gives (complex values
+    sort by real part, then imaginary), from each part's distinct values and one unique of
+    integer keys, about twice as fast as sorting the complex values (issue 15: a day close
+    estimates κ)."""
+    shares, share_at = np.unique(share, return_inverse=True)
+    counts, count_at = np.unique(count, return_inverse=True)
+    keys, times = np.unique(count_at.reshape(-1) * shares.size + share_at.reshape(-1),
+                            return_counts=True)
+    of_count, of_share = np.divmod(keys, shares.size)
+    return counts[of_count], shares[of_share], times
 
 
 def _golden_max(f: Callable[[float], float], lo: float, hi: float, tol: float) -> float:
