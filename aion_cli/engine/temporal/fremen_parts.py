@@ -205,6 +205,15 @@ class FremenParts:
         self._times = (times, table)
         return table, inverse.reshape(-1)
 
+    def use_rotations(self, t_s: F64, table: C128) -> None:
+        """Take ``table`` = e^{−iω_k t} at the times ``t_s`` (a day's slots, the caller's
+        exponentials) as the rotation table, when ``t_s`` are strictly increasing: they are
+        then their own distinct times, and :meth:`_rotation_table` would compute the same
+        rows for any pairs among them (the same exponentials, elementwise; issue 15: a day
+        close computed them up to three times)."""
+        if t_s.size and bool(np.all(t_s[1:] > t_s[:-1])):
+            self._times = (t_s, table)
+
     def _memo(self, kind: str, e: I64, t_s: F64, compute: Any) -> Any:
         """The last result of ``compute()`` for these very arrays (the scoring evaluates every
         FreMEn order at the same pairs: orders are cumulative, so one pass serves them all)."""

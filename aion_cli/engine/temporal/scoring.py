@@ -119,6 +119,7 @@ def _score(
     pool = PoolStats.of(params, state, live_rows, groups, n_groups, counts, totals)
     obs_order, obs_cut = _pairs_by_block(candidates, day.obs_entry)
     cnt_order, cnt_cut = _pairs_by_block(candidates, day.cnt_entry)
+    rot = np.exp(-1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{−iωt}, once a day
     for k, a in enumerate(range(0, candidates.size, _ENTRIES)):
         o = obs_order[obs_cut[k] : obs_cut[k + 1]]
         c = cnt_order[cnt_cut[k] : cnt_cut[k + 1]]
@@ -127,7 +128,8 @@ def _score(
         at = position[a : a + _ENTRIES]
         fc = Forecaster(params, state, rows, groups[at], pool, counts=counts[at])
         fc.cache_profiles(at)  # every profile bin of every candidate is asked for
-        _score_block(params, state, block, rows, fc, t_s, h)
+        fc.use_rotations(t_s, rot)  # its FreMEn terms at the day's pairs: the same table
+        _score_block(params, state, block, rows, fc, t_s, h, rot)
     return candidates
 
 
@@ -151,9 +153,11 @@ def _score_block(
     fc: Forecaster,
     t_s: F64,
     h: I64,
+    rot: C128,
 ) -> None:
     """Score one block of candidates (sorted; ``day`` holds only their pairs, as
-    :func:`_pairs_by_block` cut them, so every pair's entry is found among them)."""
+    :func:`_pairs_by_block` cut them, so every pair's entry is found among them); ``rot``:
+    e^{−iω_k t} of the day's slots."""
     # observed windows of each candidate: the fixed slots plus its own pairs, each own pair
     # weighed by its exposure (the part of its window observed: expected detections λ·w),
     # each fixed slot by the share of its window the logs recorded
@@ -163,9 +167,10 @@ def _score_block(
     n_prof = params.n_profile
     per_bin = np.zeros((candidates.size, n_prof))
     per_bin += np.bincount(h[fixed_slots], fixed_share, minlength=n_prof)[None, :]
-    per_bin += np.bincount(
-        obs_e * n_prof + h[obs_s], obs_w, minlength=candidates.size * n_prof
-    ).reshape(candidates.size, n_prof)
+    if obs_e.size:  # a fixed sensor's day has none: adding their zeros changes no bit (x ≥ +0)
+        per_bin += np.bincount(
+            obs_e * n_prof + h[obs_s], obs_w, minlength=candidates.size * n_prof
+        ).reshape(candidates.size, n_prof)
     windows = row_sums(per_bin)
     # the windows themselves, whole: one Pearson term each, so φ = χ² / windows stays ~1
     # for Poisson counts however little of each window an entry was watched
@@ -178,7 +183,7 @@ def _score_block(
     day_score = np.zeros((candidates.size, len(params.flow)))
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     fixed = (fixed_slots, fixed_share)
-    fremen = _fremen_sums(fc, per_bin, fixed, (obs_e, obs_s, obs_w), t_s, floor)
+    fremen = _fremen_sums(fc, per_bin, windows, fixed, (obs_e, obs_s, obs_w), rot, floor)
     observed_bins = np.flatnonzero(per_bin.any(axis=0))  # the same for every family
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
@@ -240,14 +245,16 @@ def _observed_sum(
 def _fremen_sums(
     fc: Forecaster,
     per_bin: F64,
+    windows: F64,
     fixed: tuple[I64, F64 | None],
     own: tuple[I64, I64, F64],
-    t_s: F64,
+    rot: C128,
     floor: float,
 ) -> F64:
     """Σ over each entry's observed windows of max(λ_m, floor) (times the window's exposure,
     ``own``: entry positions, slots and exposures of the own pairs; ``fixed``: the
-    fixed-sensor slots and their recorded shares, None: whole) for every FreMEn order m,
+    fixed-sensor slots and their recorded shares, None: whole; ``windows``: the row sums of
+    ``per_bin``; ``rot``: e^{−iω_k t} of the day's slots) for every FreMEn order m,
     float64[M, E]. Closed form (the rate's sum plus the day's Fourier sums at the entry's
     periods) where the lower bound μ − Σ 2|γ| shows the floor cannot bite; window by window
     for the other entries, every order in one cumulative pass."""
@@ -256,8 +263,6 @@ def _fremen_sums(
     out = np.zeros((m_max, e))
     if m_max == 0 or e == 0:
         return out
-    windows = row_sums(per_bin)
-    rot = np.exp(-1j * np.multiply.outer(t_s, fc.params.omega))  # (S, K): e^{−iωt}
     idx = fc.period_idx  # (E, M)
     fixed_slots, fixed_share = fixed
     fixed_rot = rot[fixed_slots] if fixed_share is None else rot[fixed_slots] * fixed_share[:, None]
@@ -322,6 +327,12 @@ def _per_window_sums(
     total = np.zeros((m_max, entries.size))
     for a in range(0, n_pairs, _PAIRS):
         b = min(a + _PAIRS, n_pairs)
+        if b <= fixed_pairs:  # fixed pairs only: the chunk's sums touch entries [i0, i1)
+            i0, i1 = a // n_fixed, (b - 1) // n_fixed + 1
+            before, upto = a - i0 * n_fixed, b - (i1 - 1) * n_fixed  # of the end entries
+            # added where they fall (the other entries' +0.0 would change no bit: sums ≥ +0)
+            total[:, i0:i1] += block.sums(i0, i1, before, upto, floor)
+            continue
         chunk = np.zeros((m_max, entries.size))
         if a < fixed_pairs:  # entries [i0, i1) have fixed pairs in [a, min(b, fixed_pairs))
             fb = min(b, fixed_pairs)
