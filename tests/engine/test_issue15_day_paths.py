@@ -325,7 +325,11 @@ def test_observed_sums_over_a_grid_equal_the_pair_sums(cached: bool, seed: int) 
     per_bin[:, rng.random(params.n_profile) < 0.4] = 0.0
     floor = float(rng.choice([1e-12, 1e-3, 0.5]))
     fremen = np.zeros((params.max_order, 30))
+    bins = np.flatnonzero(per_bin.any(axis=0))
     for name in ("static", "shape", "profile"):
         got = scoring._observed_sum(fc, name, per_bin, floor, fremen)
         want = _observed_sum_by_pairs(fc, name, per_bin, floor, fremen)
         assert got.tobytes() == want.tobytes(), name
+        # the windows per (bin, entry) gathered once by the caller for every family
+        held = scoring._observed_sum(fc, name, per_bin, floor, fremen, bins, per_bin.T[bins])
+        assert held.tobytes() == want.tobytes(), name

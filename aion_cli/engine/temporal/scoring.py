@@ -185,12 +185,13 @@ def _score_block(
     fixed = (fixed_slots, fixed_share)
     fremen = _fremen_sums(fc, per_bin, windows, fixed, (obs_e, obs_s, obs_w), rot, floor)
     observed_bins = np.flatnonzero(per_bin.any(axis=0))  # the same for every family
+    bin_windows = per_bin.T[observed_bins]  # (bin × entry), gathered once for every family
     for f, name in enumerate(params.flow):
         if not params.flow_enabled[f]:
             continue
         lam_pairs = np.maximum(fc.flow(name, ce, pair_h, pair_t), floor)
         lam_pairs *= cw
-        sum_lam = _observed_sum(fc, name, per_bin, floor, fremen, observed_bins)
+        sum_lam = _observed_sum(fc, name, per_bin, floor, fremen, observed_bins, bin_windows)
         log_part = np.bincount(ce, n_total * np.log(lam_pairs), minlength=candidates.size)
         # Σ min((n − λ)² / λ, K²) over the windows with detections, λ over the empty ones:
         # the pairs' capped terms less their λ, plus every observed window's λ
@@ -219,10 +220,13 @@ def _observed_sum(
     floor: float,
     fremen: F64,
     bins: I64 | None = None,
+    bin_windows: F64 | None = None,
 ) -> F64:
     """Σ over each entry's observed windows of max(λ, floor): in closed form per profile bin
     for the periodic families, from ``fremen`` (:func:`_fremen_sums`) for FreMEn. ``bins``:
-    the profile bins some entry was observed in, when the caller found them already."""
+    the profile bins some entry was observed in, when the caller found them already, and
+    ``bin_windows`` = ``per_bin.T[bins]`` (a strided gather of every entry's windows, the
+    same for every family: issue 15, once per day instead of once per family)."""
     if name.startswith("fremen"):
         out: F64 = fremen[int(name.removeprefix("fremen")) - 1]
         return out
@@ -238,7 +242,8 @@ def _observed_sum(
     # starting from the first term instead of 0.0 + it changes no bit)
     at_h, at_e = bins[:, None], np.arange(n)[None, :]
     lam = np.maximum(fc.flow(name, at_e, at_h, np.zeros((1, 1))), floor)
-    terms = np.ascontiguousarray(lam * per_bin.T[bins])
+    weights = per_bin.T[bins] if bin_windows is None else bin_windows
+    terms = np.ascontiguousarray(lam * weights)
     return sum_in_order(terms)
 
 
