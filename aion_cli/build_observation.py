@@ -47,6 +47,7 @@ def observe(
     opens_map: bool = False,
     begun: bool = False,
     tf_logs: tuple[tuple[int, int], ...] = (),
+    own_poses: Trajectory | None = None,
 ) -> None:
     """The observation of a build, said in ``report.observation``: the robot trajectory
     ``frames`` (``--map-frame``, ``--base-frame``) from TF, added to ``mapper``; else the scene
@@ -65,9 +66,11 @@ def observe(
     ``opens_map``: the shard's logs start a new map (no map or logs before them); ``begun``:
     a shard after others (or onto a map): where its map starts (:func:`_one_pass_start`).
     ``tf_logs``: the first and last message time of each log holding ``/tf`` messages; a
-    run of poses that is all of one such log's is never a stray (:func:`robot_trajectory`)."""
+    run of poses that is all of one such log's is never a stray (:func:`robot_trajectory`).
+    ``own_poses``: the robot poses of the logs' own TF trees, where robots recording at once
+    each have one (:meth:`aion_cli.tf_trees.TfTrees.poses`), taken instead of ``tf``'s."""
     map_frame, base_frame = frames
-    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings, tf_logs)
+    traj = robot_trajectory(tf, map_frame, base_frame, report.warnings, tf_logs, own_poses)
     if tf is not None and traj is None:
         report.notes.append(no_trajectory(tf, map_frame, base_frame))
     if traj is not None:

@@ -47,11 +47,11 @@ if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions, ShardStart
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.mapper import Mapper
-    from aion_cli.formats.tf import TfBuffer
     from aion_cli.graph_feed import GraphFeed
     from aion_cli.log_times import TimeCheck
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
+    from aion_cli.tf_trees import TfTrees
     from aion_cli.topics import TopicPlan
 
 
@@ -122,7 +122,7 @@ class StreamStep:
         return ", ".join(names)
 
     def _derive(
-        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig, start: int
+        self, logset: Any, plan: TopicPlan, tf: TfTrees, config: ModelConfig, start: int
     ) -> GraphSnapshot:
         from aion_cli.derive_graph import OccupancyGrid
 
@@ -144,16 +144,16 @@ class StreamStep:
 
     def _feeder(
         self,
-        tf: TfBuffer | None,
+        tf: TfTrees,
         counts: DetectionCounts,
         link: bool = True,
         cell_size: float | None = None,
     ) -> DetectionFeeder:
-        """A feeder with the adapters chosen for the log's detection topics; ``link``: link
-        id-less detections into tracks (headings from motion); ``cell_size``: the map's, so
-        rows it cannot place stop before linking."""
+        """A feeder with the adapters chosen for the log's detection topics, moving rows with
+        the logs' TF trees (``tf``); ``link``: link id-less detections into tracks (headings
+        from motion); ``cell_size``: the map's, so rows it cannot place stop before linking."""
         return DetectionFeeder(
-            tf,
+            tf.shared,
             self.opts.map_frame,
             counts,
             self._adapters,
@@ -161,9 +161,10 @@ class StreamStep:
             linker=link,
             yaw_seen=self.at.yaw_seen if link else None,
             cell_size=cell_size,
+            trees=tf,
         )
 
-    def _stream(self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, mapper: Mapper) -> None:
+    def _stream(self, logset: Any, plan: TopicPlan, tf: TfTrees, mapper: Mapper) -> None:
         feeders = TopicFeeders(
             lambda counts: self._feeder(tf, counts, cell_size=mapper.state.config.cell_size),
             sorted(plan.names("detections")),

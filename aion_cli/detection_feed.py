@@ -58,6 +58,7 @@ if TYPE_CHECKING:
     from aion_cli.formats.detections import DetectionAdapter
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
+    from aion_cli.tf_trees import TfTrees
 
 _VARIES = float("nan")
 _SAME_YAW = 1e-9  # rad: yaws closer than this are one orientation
@@ -118,7 +119,8 @@ class DetectionFeeder:
     ``adapters``: the adapter per ``(topic, msgtype, encoding)`` (from
     :func:`aion_cli.pipeline`'s topic choice); ``factory`` builds the missing ones on first
     sight (default: the built-in adapter with shipped definitions). ``linker``: the track
-    linker's parameters for id-less detections, None to leave them unlinked."""
+    linker's parameters for id-less detections, None to leave them unlinked. ``trees``: the
+    build's TF trees, ``tf`` their shared buffer (:mod:`aion_cli.tf_trees`)."""
 
     def __init__(
         self,
@@ -130,13 +132,14 @@ class DetectionFeeder:
         linker: LinkerConfig | bool | None = True,
         yaw_seen: Mapping[str, float] | None = None,
         cell_size: float | None = None,
+        trees: TfTrees | None = None,
     ) -> None:
         from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
         from aion_cli.formats.raw import normalize_frame
 
         # into the map frame, spelt as the detections' frames are
-        self.frames = MapFrameMover(tf, normalize_frame(map_frame), counts)
+        self.frames = MapFrameMover(tf, normalize_frame(map_frame), counts, trees=trees)
         self.counts = counts
         self.cell_size = cell_size  # the map's: rows it cannot place stop before linking
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
@@ -215,7 +218,7 @@ class DetectionFeeder:
             frames = adapter.decode(msgs, on_error="skip")  # damaged messages: counted
             self._count(topic, adapter, frames, msgs)
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
-            frames = self.counts.placeable(self.frames.move(frames), self.cell_size)
+            frames = self.counts.placeable(self.frames.move(frames, msgs), self.cell_size)
             rseg = seg[frames.msg_index]
             parts.append(frames)
             row_segs.append(rseg)

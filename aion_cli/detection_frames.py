@@ -2,7 +2,9 @@
 yaws turned by the TF buffer's transform at each row's time; rows without a transform are
 counted as ``no_transform`` and dropped; a frame with no TF at all is an error naming
 ``--map-frame``. Rows that name no frame (an empty ``frame_id``: Hydra's ROS 1 sender, some
-trackers) are taken as in the map frame, and the build says so once per topic."""
+trackers) are taken as in the map frame, and the build says so once per topic. With the TF
+trees of several robots recording at once (:class:`aion_cli.tf_trees.TfTrees`) each row is
+moved with its own log's tree where that tree joins its frame to the map frame."""
 
 from __future__ import annotations
 
@@ -15,7 +17,9 @@ from aion_cli.errors import TransformError
 
 if TYPE_CHECKING:
     from aion_cli.detection_counts import DetectionCounts
+    from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
+    from aion_cli.tf_trees import TfTrees
 
 
 @dataclasses.dataclass
@@ -23,16 +27,20 @@ class MapFrameMover:
     """One detection topic's move into ``map_frame`` (spelt as ``formats.raw.normalize_frame``
     spells frames) with ``tf`` (None: the logs have none); drops counted in ``counts``.
     ``map_frame_seen``: rows were given in the map frame itself (a second frame without TF is
-    then an error of two frames); ``unframed``: some rows named no frame."""
+    then an error of two frames); ``unframed``: some rows named no frame. ``trees``: the
+    build's TF trees (``tf`` is their shared one), which say whose tree moves each row."""
 
     tf: TfBuffer | None
     map_frame: str
     counts: DetectionCounts
     map_frame_seen: bool = False
     unframed: bool = False
+    trees: TfTrees | None = None
 
-    def move(self, frames: Any) -> Any:
-        """Rows moved into the map frame; rows without a transform are counted and dropped."""
+    def move(self, frames: Any, messages: list[RawMessage] | None = None) -> Any:
+        """Rows moved into the map frame; rows without a transform are counted and dropped.
+        ``messages``: those ``frames`` were decoded from (``frames.msg_index``), whose
+        recordings choose the tree of each row (:meth:`aion_cli.tf_trees.TfTrees.groups`)."""
         from aion_cli.formats.quaternions import rotated_yaw
 
         if len(frames) == 0:
@@ -70,14 +78,17 @@ class MapFrameMover:
                     hint=f"if {name!r} is a fixed frame, give --map-frame {name} (the frame "
                     "the map is in)",
                 )
-            R, t, good = self.tf.lookup(target, name, frames.t_ns[rows])
-            xyz[rows] = np.einsum("nij,nj->ni", R, frames.xyz[rows]) + t
-            vel[rows] = np.einsum("nij,nj->ni", R, frames.velocity[rows])
-            yaw[rows] = rotated_yaw(R, yaw[rows])
-            ok[rows] = good
-            if self.counts.no_transform_why is None and not good.all():
-                first = int(frames.t_ns[rows[np.argmin(good)]])
-                self.counts.no_transform_why = clock_mismatch(self.tf, target, name, first)
+            recording = self._recordings(frames, rows, messages)
+            for tf, part in self._trees(target, name, recording):
+                at = rows if part is None else rows[part]
+                R, t, good = tf.lookup(target, name, frames.t_ns[at])
+                xyz[at] = np.einsum("nij,nj->ni", R, frames.xyz[at]) + t
+                vel[at] = np.einsum("nij,nj->ni", R, frames.velocity[at])
+                yaw[at] = rotated_yaw(R, yaw[at])
+                ok[at] = good
+                if self.counts.no_transform_why is None and not good.all():
+                    first = int(frames.t_ns[at[np.argmin(good)]])
+                    self.counts.no_transform_why = clock_mismatch(tf, target, name, first)
         n_bad = int((~ok).sum())
         if n_bad:
             self.counts.dropped["no_transform"] += n_bad
@@ -90,6 +101,22 @@ class MapFrameMover:
             frames=(target,),
         )
         return moved.select(ok) if n_bad else moved
+
+    def _recordings(
+        self, frames: Any, rows: np.ndarray, messages: list[RawMessage] | None
+    ) -> np.ndarray | None:
+        """The recording of each of ``rows``; None when one tree moves them all."""
+        if self.trees is None or messages is None:
+            return None
+        of_message = self.trees.recordings_of(messages)
+        return None if of_message is None else of_message[frames.msg_index[rows]]
+
+    def _trees(self, target: str, name: str, recording: np.ndarray | None) -> Any:
+        """The buffers moving rows of frame ``name``, with the positions of their rows."""
+        if self.trees is None or recording is None:
+            assert self.tf is not None
+            return ((self.tf, None),)
+        return self.trees.groups(target, name, recording)
 
 
 #: how far outside TF's stamps a detection may lie before TF is said to be on another clock

@@ -89,6 +89,7 @@ from aion_cli.tf_feed import (
     read_tf_and_times,
     with_static_tf,
 )
+from aion_cli.tf_trees import TfTrees, own_tf_buffers
 from aion_cli.topic_mappable import no_detection_topic
 from aion_cli.topics import TopicPlan
 
@@ -96,7 +97,6 @@ if TYPE_CHECKING:
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import I64
-    from aion_cli.formats.tf import TfBuffer
 
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_map"]
 
@@ -333,17 +333,18 @@ class _Build(StreamStep):
             return Mapper(config, start_shard(MapState.empty(config)))
         return Mapper(config, self.previous.state if self.previous else None)
 
-    def _read_times(self, logset: Any, plan: TopicPlan) -> TfBuffer | None:
-        """TF into a buffer and the log times of every topic the build uses, then the
-        time-sanity rules (:mod:`aion_cli.log_times`) over them: their warnings go to the
-        report, and :attr:`_times` filters the later reads. The build's time span comes from
-        the detection, scene-graph and (dynamic) TF topics only: unrelated topics and
-        container summaries have no say."""
+    def _read_times(self, logset: Any, plan: TopicPlan) -> TfTrees:
+        """TF into its trees (:mod:`aion_cli.tf_trees`) and the log times of every topic the
+        build uses, then the time-sanity rules (:mod:`aion_cli.log_times`) over them: their
+        warnings go to the report, and :attr:`_times` filters the later reads. The build's
+        time span comes from the detection, scene-graph and (dynamic) TF topics only:
+        unrelated topics and container summaries have no say."""
         graphs = plan.names("graph") if self.opts.graph_file is None else set()
         timed = plan.names("detections") | graphs
         thinned = graphs if self.opts.graph_period_ns > 0 else set()
+        own = own_tf_buffers(logset, plan)  # robots recording at once: a tree each
         tf, times, stats = read_tf_and_times(
-            logset, plan, timed, self.progress, thinned, use_index=self._use_index
+            logset, plan, timed, self.progress, thinned, use_index=self._use_index, own=own
         )
         tf_topics = plan.names("tf") if plan.tf else set()
         self._times = self._whole_times = check_times(
@@ -368,7 +369,8 @@ class _Build(StreamStep):
         else:  # the whole logs' counts: the first part reports them
             self.report.time_dropped = {}
             self.report.tf_undecodable = 0
-        return with_static_tf(tf, self.at.static_tf)  # a shard: all logs' /tf_static
+        # a shard: all logs' /tf_static, in every tree
+        return TfTrees(with_static_tf(tf, self.at.static_tf), own).with_static()
 
     def _distinct_logs(self) -> DistinctLogs:
         """Which logs are distinct (:func:`aion_cli.provenance.distinct_logs`): they become
@@ -389,9 +391,7 @@ class _Build(StreamStep):
         old = previous.inputs if previous is not None else ()
         return old + tuple(InputLog.from_dict(entry) for entry in new)
 
-    def _observation(
-        self, mapper: Mapper, tf: TfBuffer | None, plan: TopicPlan, logset: Any
-    ) -> None:
+    def _observation(self, mapper: Mapper, tf: TfTrees, plan: TopicPlan, logset: Any) -> None:
         """Which windows the map observed (:func:`aion_cli.build_observation.observe`); the first
         scene graph's agent layer is asked for only without a robot trajectory."""
 
@@ -411,7 +411,7 @@ class _Build(StreamStep):
         # the logs holding /tf: a short one's whole trajectory is its own, not strays
         dynamic = [t for t in plan.names("tf") if not t.endswith("_static")] if plan.tf else []
         observe(
-            mapper, tf, frames, graph_agents, logset, self._times, self.report,
+            mapper, tf.shared, frames, graph_agents, logset, self._times, self.report,
             self.opts.observed, self._detection_windows,
             observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
             self._marks,
@@ -419,10 +419,11 @@ class _Build(StreamStep):
             self.at.opens_map and self.start is None,  # (learnt onto a map: it has started)
             self.shard and not self.at.opens_map and self.start is None,
             tuple(logset.recording_times(dynamic).values()),
+            tf.poses(*frames),
         )
 
     def _fixed_graph(
-        self, logset: Any, plan: TopicPlan, tf: TfBuffer | None, config: ModelConfig
+        self, logset: Any, plan: TopicPlan, tf: TfTrees, config: ModelConfig
     ) -> GraphSnapshot | None:
         """The graph from ``--graph FILE`` or ``--derive-graph`` (added once, at the start;
         :func:`aion_cli.graph_feed.graph_source`)."""

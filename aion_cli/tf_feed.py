@@ -69,6 +69,7 @@ def read_tf_and_times(
     graph_topics: set[str] | None = None,
     *,
     use_index: bool = True,
+    own: dict[int, TfBuffer] | None = None,
 ) -> tuple[TfBuffer | None, TopicTimes, TfStats]:
     """One read of the TF topics and of the other topics in ``timed`` (those the build uses):
     every TF message into one buffer, and the log time of every message of ``timed``
@@ -86,7 +87,9 @@ def read_tf_and_times(
     the other topics' times come as arrays from the index, without a message; otherwise
     every message of those topics is read with TF. With ``graph_topics`` the times are a
     :class:`GraphTimes`, which also keeps those topics' log times in read order (for
-    :func:`aion_cli.graph_schedule.graph_schedule`)."""
+    :func:`aion_cli.graph_schedule.graph_schedule`). ``own``: buffers per recording
+    (:attr:`formats.raw.RawMessage.recording`) that also receive that recording's own
+    ``/tf`` transforms (:mod:`aion_cli.tf_trees`)."""
     import logging
 
     from aion_cli.formats.tf import TfBuffer
@@ -108,7 +111,7 @@ def read_tf_and_times(
     progress.start(
         "reading TF and log times" if tf_topics else "reading log times", logset.total(topics)
     )
-    reader = TfReader(logset, TfBuffer(), stats) if tf_topics else None
+    reader = TfReader(logset, TfBuffer(), stats, own) if tf_topics else None
     buffer = reader.buffer if reader is not None else None
 
     def add(chunk: list[RawMessage]) -> None:
@@ -149,12 +152,20 @@ class TfReader:
     (:mod:`formats.tf_fast`) where the log's definition of the TF type is the layout that
     decoder reads, else (and for a chunk it rejects) message by message with the log's own
     definitions, a message that cannot be decoded skipped and counted in ``stats``. Topics
-    named ``*_static`` hold static transforms."""
+    named ``*_static`` hold static transforms. ``own``: per recording, a buffer that also
+    receives the ``/tf`` (not static) transforms of that recording's messages."""
 
-    def __init__(self, logset: Any, buffer: TfBuffer, stats: TfStats) -> None:
+    def __init__(
+        self,
+        logset: Any,
+        buffer: TfBuffer,
+        stats: TfStats,
+        own: dict[int, TfBuffer] | None = None,
+    ) -> None:
         self.logset = logset
         self.buffer = buffer
         self.stats = stats
+        self.own = own or {}
         self.generic = 0  # chunks read by the generic decoder
         self._fast_ok: dict[tuple[str, str, str], bool] = {}
 
@@ -192,6 +203,9 @@ class TfReader:
                     stats.unstamped += _stamp_unset(decoded, m.log_time_ns)
                 stats.norms.add_message(m.topic, decoded)
                 buffer.add_message(decoded, static=st)
+                own = None if st else self.own.get(m.recording)
+                if own is not None:
+                    own.add_message(decoded)
         else:
             stats.norms.add_arrays(chunk, arrays)
             rows_static = static[arrays.msg_index]
@@ -208,6 +222,19 @@ class TfReader:
                     buffer.add_transforms(
                         parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, flag
                     )
+            if self.own:
+                self._route(chunk, arrays, rows_static)
+
+    def _route(self, chunk: list[RawMessage], arrays: Any, rows_static: np.ndarray) -> None:
+        """The decoded ``/tf`` rows of ``chunk`` (``arrays``) also into the buffer of the
+        recording each came from (:attr:`own`)."""
+        of = np.fromiter((m.recording for m in chunk), np.int64, len(chunk))[arrays.msg_index]
+        dynamic = arrays.usable() & ~rows_static
+        for recording, own in self.own.items():
+            for parent, child, rows in arrays.select(dynamic & (of == recording)).by_edge():
+                own.add_transforms(
+                    parent, child, rows.t_ns, rows.translation, rows.quat_xyzw, False
+                )
 
 
 def read_static_tf(logset: Any, plan: TopicPlan) -> StaticTf:

@@ -29,6 +29,7 @@ def robot_trajectory(
     base_frame: str,
     warnings: list[str],
     recordings: Sequence[tuple[int, int]] = (),
+    own: Trajectory | None = None,
 ) -> Trajectory | None:
     """The robot's ``map_frame -> base_frame`` poses (``--map-frame``, ``--base-frame``),
     without stray ones (the time-sanity rule of :func:`aion_cli.log_times.stray_mask` on the
@@ -39,13 +40,18 @@ def robot_trajectory(
     (:func:`aion_cli.log_times.own_recordings`, as for log times): a short robot log a day
     away from a bigger one keeps its poses in one build of both as in a build of it alone
     (``--map``, a parallel build's shard of its own). Logs without ``/tf`` are left out: a
-    stray stamp that falls in a fixed sensor's log is no pose of that log."""
+    stray stamp that falls in a fixed sensor's log is no pose of that log. ``own``: the poses
+    of the logs' own TF trees (robots recording at once, :meth:`aion_cli.tf_trees.TfTrees.
+    poses`), judged instead of ``tf``'s."""
     if tf is None:
         return None
-    try:
-        traj = tf.trajectory(map_frame, base_frame)
-    except TransformError:
-        return None
+    if own is not None:
+        traj = own
+    else:
+        try:
+            traj = tf.trajectory(map_frame, base_frame)
+        except TransformError:
+            return None
     if len(traj) == 0:
         return None
     t = np.asarray(traj.t_ns, dtype=np.int64)

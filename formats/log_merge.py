@@ -20,10 +20,16 @@ def merge_by_start(
     topics: set[str] | None,
     between: tuple[int, int] | None = None,
     unread: UnreadHint | None = None,
+    recordings: list[int] | None = None,
 ) -> Iterator[RawMessage]:
     """The messages of ``sources`` merged by log time, ties in source order; a source's
     stream is started only once the merge reaches its first message time (or nothing earlier
-    is left), so files that follow one another are read one after the other."""
+    is left), so files that follow one another are read one after the other. ``recordings``:
+    per source, the recording its messages are marked with (:func:`formats.raw.
+    from_recording`; 0, the default, is left unmarked)."""
+    from aion_cli.formats.raw import from_recording
+
+    marks = recordings or [0] * len(sources)
     order = sorted(range(len(sources)), key=lambda k: (sources[k].file.start_ns, k))
     heap: list[tuple[int, int, int, RawMessage, Iterator[RawMessage]]] = []
     seq = 0
@@ -41,7 +47,7 @@ def merge_by_start(
                 seq += 1
             continue
         _, k, _, msg, stream = heap[0]
-        yield msg
+        yield from_recording(msg, marks[k]) if marks[k] else msg
         following = next(stream, None)
         if following is None:
             heapq.heappop(heap)

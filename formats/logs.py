@@ -198,7 +198,7 @@ class LogSet:
         selected = None if topics is None else set(topics)
         if len(self._sources) == 1:
             return self._sources[0].messages(selected, between, unread)
-        return merge_by_start(self._sources, selected, between, unread)
+        return merge_by_start(self._sources, selected, between, unread, self._recordings)
 
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message

@@ -8,7 +8,7 @@ import stat
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import ClassVar, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -59,13 +59,19 @@ class TopicInfo:
 @dataclass(frozen=True)
 class RawMessage:
     """One serialized message. ``data`` is the wire payload: CDR with its 4-byte encapsulation
-    header for ROS 2, plain ROS 1 serialization for ROS 1."""
+    header for ROS 2, plain ROS 1 serialization for ROS 1.
+
+    ``recording``: which recording of a :class:`~formats.logs.LogSet` the message came from
+    (the position of the path it was opened from; the storage files of one rosbag2 bag share
+    it), set by the merge of several logs (:func:`from_recording`); 0 in a set of one log.
+    Not a field: equality, hashing and ``repr`` stay those of the five fields."""
 
     topic: str
     msgtype: str
     log_time_ns: int
     data: bytes
     encoding: Encoding
+    recording: ClassVar[int] = 0
 
 
 _new_object = object.__new__
@@ -87,6 +93,15 @@ def raw_message(
     fields["log_time_ns"] = log_time_ns
     fields["data"] = data
     fields["encoding"] = encoding
+    return msg
+
+
+def from_recording(msg: RawMessage, recording: int) -> RawMessage:
+    """``msg`` marked as a message of ``recording`` (:attr:`RawMessage.recording`), in place:
+    the merge of several logs marks each message as it yields it (a dict write, as
+    :func:`raw_message` makes them), so that a build can tell whose ``/tf`` a detection
+    should be resolved with (:mod:`aion_cli.tf_trees`)."""
+    msg.__dict__["recording"] = recording
     return msg
 
 

@@ -1,0 +1,208 @@
+"""Robots recording at the same time, built into one map (``aion build robot1.mcap
+robot2.mcap``): both publish ``map -> base_link`` on ``/tf`` and detect people in
+``base_link``. Each log holding ``/tf`` of its own resolves its detections with its own TF
+tree (:mod:`aion_cli.tf_trees`); one buffer of both robots' poses moved each robot's
+detections with the other's poses (interpolated between the two robots at interleaved stamps,
+one of them at equal stamps), so people appeared where nobody stood and the map depended on
+the order the logs were given. A recording split by topic (the detections in one log, ``/tf``
+in another) still resolves with the shared tree.
+
+The answers are known independently: each robot drives a straight line at constant speed
+(so TF's linear interpolation is exact) and sees one standing person, whose map position the
+test chose; every detection must land in that person's map cell."""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from aion_cli.mapquery import load_map
+from aion_cli.pipeline import BuildOptions, build_map
+from tests.cli.logdata import T0
+
+S = 1_000_000_000
+DURATION_S = 1200  # two 10-minute windows
+POSE_PERIOD_S = 1
+DETECTION_PERIOD_S = 5
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A robot driving from ``start`` to ``end`` (map frame) over the log, heading ``yaw``,
+    seeing the person standing at ``person`` (track ``track``)."""
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+    yaw: float
+    person: tuple[float, float]
+    track: int
+
+    def pose(self, s: float) -> tuple[float, float]:
+        f = s / DURATION_S
+        return (
+            self.start[0] + f * (self.end[0] - self.start[0]),
+            self.start[1] + f * (self.end[1] - self.start[1]),
+        )
+
+    def seen(self, s: float) -> tuple[float, float]:
+        """The person in ``base_link`` at ``s`` seconds: R(yaw)^T (person - robot)."""
+        x, y = self.pose(s)
+        dx, dy = self.person[0] - x, self.person[1] - y
+        c, n = math.cos(self.yaw), math.sin(self.yaw)
+        return c * dx + n * dy, -n * dx + c * dy
+
+
+ROBOT1 = Robot(start=(2.0, 0.0), end=(6.0, 0.0), yaw=0.0, person=(4.25, 2.75), track=1)
+ROBOT2 = Robot(start=(16.0, 10.0), end=(16.0, 6.0), yaw=-math.pi / 2, person=(17.75, 7.25), track=2)
+
+
+def _tf(t: int, robot: Robot, s: float) -> dict[str, object]:
+    x, y = robot.pose(s)
+    return {
+        "transforms": [
+            {
+                "header": {"stamp": _stamp(t), "frame_id": "map"},
+                "child_frame_id": "base_link",
+                "transform": {
+                    "translation": {"x": x, "y": y, "z": 0.0},
+                    "rotation": {"z": math.sin(robot.yaw / 2), "w": math.cos(robot.yaw / 2)},
+                },
+            }
+        ]
+    }
+
+
+def _people(t: int, robot: Robot, s: float) -> dict[str, object]:
+    x, y = robot.seen(s)
+    return {
+        "header": {"stamp": _stamp(t), "frame_id": "base_link"},
+        "tracks": [
+            {
+                "track_id": robot.track,
+                "is_matched": True,
+                "pose": {"pose": {"position": {"x": x, "y": y}, "orientation": {"w": 1.0}}},
+            }
+        ],
+    }
+
+
+def _stamp(t: int) -> dict[str, int]:
+    return {"sec": t // S, "nanosec": t % S}
+
+
+def write_robot(
+    paths: list[Path], robot: Robot, offset_ns: int = 0, tf: bool = True, people: bool = True
+) -> int:
+    """The robot's log, its time cut evenly over ``paths`` (one file each: a bag split by
+    duration), every stamp ``offset_ns`` after the other robot's; ``tf``/``people``: whether
+    it holds the ``/tf`` poses, the detections (a recording split by topic holds one of
+    them). Returns the detection messages written."""
+    from aion_cli.formats.writers import LogWriter
+
+    n = 0
+    part = DURATION_S // len(paths)
+    for k, path in enumerate(paths):
+        with LogWriter(path, "mcap") as writer:
+            for s in range(k * part, (k + 1) * part):
+                t = T0 + s * S + offset_ns
+                if tf and s % POSE_PERIOD_S == 0:
+                    writer.write("/tf", "tf2_msgs/msg/TFMessage", _tf(t, robot, s), t)
+                if people and s % DETECTION_PERIOD_S == 2:  # between two poses
+                    kind = "spencer_tracking_msgs/msg/TrackedPersons"
+                    half = t + S // 2
+                    writer.write("/tracks", kind, _people(half, robot, s + 0.5), half)
+                    n += 1
+    return n
+
+
+def where_people_are(
+    logs: list[Path], out: Path, workers: int = 1
+) -> dict[tuple[float, float], float]:
+    """Build ``logs`` and return the detections of each map cell that holds any, by its
+    centre (x, y)."""
+    report = build_map(BuildOptions(logs=tuple(logs), output=out, workers=workers))
+    assert report.observation.startswith("tf map->base_link"), report.observation
+    entries = load_map(out).state.entries
+    rows = entries.live_rows()
+    counts = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
+    held = counts > 0
+    centres = entries.xyz[rows][held, :2]
+    return {(float(x), float(y)): float(c) for (x, y), c in zip(centres, counts[held], strict=True)}
+
+
+def _at(cells: dict[tuple[float, float], float], person: tuple[float, float]) -> float:
+    """The detections of the cells within half a metre of ``person``."""
+    return sum(c for xy, c in cells.items() if math.dist(xy, person) <= 0.5)
+
+
+def _assert_both_people(cells: dict[tuple[float, float], float], per_robot: int) -> None:
+    assert _at(cells, ROBOT1.person) == per_robot, cells
+    assert _at(cells, ROBOT2.person) == per_robot, cells
+    assert sum(cells.values()) == 2 * per_robot, cells  # nobody anywhere else
+
+
+@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(offset_ms=st.integers(0, 999), swapped=st.booleans())
+def test_two_robots_at_once_put_each_person_where_they_stood(offset_ms: int, swapped: bool) -> None:
+    with tempfile.TemporaryDirectory() as folder:
+        one, two = Path(folder, "robot1.mcap"), Path(folder, "robot2.mcap")
+        per_robot = write_robot([one], ROBOT1)
+        assert write_robot([two], ROBOT2, offset_ms * 1_000_000) == per_robot
+        logs = [two, one] if swapped else [one, two]
+        cells = where_people_are(logs, Path(folder, "fleet.aion"))
+    _assert_both_people(cells, per_robot)
+
+
+def test_the_map_of_two_robots_is_the_same_in_either_order(tmp_path: Path) -> None:
+    from aion_cli.engine.compare import differences
+
+    one, two = tmp_path / "robot1.mcap", tmp_path / "robot2.mcap"
+    write_robot([one], ROBOT1)
+    write_robot([two], ROBOT2)  # the same stamps: one buffer kept one robot's poses
+    given_, swapped = tmp_path / "given.aion", tmp_path / "swapped.aion"
+    where_people_are([one, two], given_)
+    where_people_are([two, one], swapped)
+    a, b = load_map(given_).state, load_map(swapped).state
+    assert differences(a, b) == []
+
+
+def test_a_robot_recorded_as_a_split_bag_has_one_tree(tmp_path: Path) -> None:
+    """Robot 1's bag split by duration into two storage files (a rosbag2 folder without
+    metadata.yaml): one recording, one tree over both files, beside robot 2's log."""
+    bag = tmp_path / "robot1"
+    bag.mkdir()
+    per_robot = write_robot([bag / "robot1_0.mcap", bag / "robot1_1.mcap"], ROBOT1)
+    two = tmp_path / "robot2.mcap"
+    write_robot([two], ROBOT2, 250_000_000)
+    _assert_both_people(where_people_are([bag, two], tmp_path / "fleet.aion"), per_robot)
+
+
+def test_a_recording_split_by_topic_resolves_with_the_other_logs_tf(tmp_path: Path) -> None:
+    """Robot 1's detections in one log and its ``/tf`` in another, over the same time (no
+    log of its own holds both): the shared tree moves the detections, as before."""
+    people, poses = tmp_path / "robot1-people.mcap", tmp_path / "robot1-tf.mcap"
+    per_robot = write_robot([people], ROBOT1, tf=False)
+    write_robot([poses], ROBOT1, people=False)
+    cells = where_people_are([people, poses], tmp_path / "split.aion")
+    assert _at(cells, ROBOT1.person) == per_robot == sum(cells.values()), cells
+
+
+def test_two_robots_in_parallel_shards_equal_one_pass(tmp_path: Path) -> None:
+    """The two robots of one time and robot 1 again the next day (another shard): the
+    parallel build equals one pass."""
+    from aion_cli.engine.compare import differences
+
+    one, two, later = (tmp_path / f"{n}.mcap" for n in ("robot1", "robot2", "robot1-next"))
+    per_robot = write_robot([one], ROBOT1)
+    write_robot([two], ROBOT2, 400_000_000)
+    write_robot([later], ROBOT1, 86_400 * S)
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    cells = where_people_are([one, two, later], seq)
+    assert (_at(cells, ROBOT1.person), _at(cells, ROBOT2.person)) == (2 * per_robot, per_robot)
+    where_people_are([one, two, later], par, workers=2)
+    assert differences(load_map(seq).state, load_map(par).state) == []
