@@ -9,7 +9,8 @@ steps' parts live beside it, each with its own rules. Steps of :func:`build_map`
    (:func:`aion_cli.build_options.build_topics`, :func:`aion_cli.topics.select_topics`):
    detection topics with a supported adapter (all of them, or those named), the scene-graph
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
-2. read TF first into a ``TfBuffer``, and the log times of every topic the build uses (from
+2. read TF first into a ``TfBuffer`` (and, for robots recording at once, a tree per log:
+   :mod:`aion_cli.tf_trees`), and the log times of every topic the build uses (from
    the logs' indexes where they give exactly the stream's, else in the same pass;
    :mod:`aion_cli.tf_feed`, :mod:`formats.stream_times`); the time-sanity rules
    (:mod:`aion_cli.log_times`) drop messages with stray or unrepresentable log times
