@@ -59,6 +59,8 @@ class MapFrameMover:
         vel = frames.velocity.copy()
         yaw = frames.yaw.copy()
         ok = np.ones(len(frames), dtype=bool)
+        trees = self.trees if messages is not None else None
+        of_message = None if trees is None else trees.recordings_of(messages or [])
         for index, name in enumerate(frames.frames):
             if name in ("", target):
                 continue  # Hydra's ROS 1 sender leaves frame ids empty: taken as the map frame
@@ -78,7 +80,7 @@ class MapFrameMover:
                     hint=f"if {name!r} is a fixed frame, give --map-frame {name} (the frame "
                     "the map is in)",
                 )
-            recording = self._recordings(frames, rows, messages)
+            recording = None if of_message is None else of_message[frames.msg_index[rows]]
             for tf, part in self._trees(target, name, recording):
                 at = rows if part is None else rows[part]
                 R, t, good = tf.lookup(target, name, frames.t_ns[at])
@@ -101,15 +103,6 @@ class MapFrameMover:
             frames=(target,),
         )
         return moved.select(ok) if n_bad else moved
-
-    def _recordings(
-        self, frames: Any, rows: np.ndarray, messages: list[RawMessage] | None
-    ) -> np.ndarray | None:
-        """The recording of each of ``rows``; None when one tree moves them all."""
-        if self.trees is None or messages is None:
-            return None
-        of_message = self.trees.recordings_of(messages)
-        return None if of_message is None else of_message[frames.msg_index[rows]]
 
     def _trees(self, target: str, name: str, recording: np.ndarray | None) -> Any:
         """The buffers moving rows of frame ``name``, with the positions of their rows."""

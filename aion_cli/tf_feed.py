@@ -16,6 +16,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import compress
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -228,7 +229,8 @@ class TfReader:
     def _route(self, chunk: list[RawMessage], arrays: Any, rows_static: np.ndarray) -> None:
         """The decoded ``/tf`` rows of ``chunk`` (``arrays``) also into the buffer of the
         recording each came from (:attr:`own`)."""
-        of = np.fromiter((m.recording for m in chunk), np.int64, len(chunk))[arrays.msg_index]
+        of = np.fromiter(map(attrgetter("recording"), chunk), np.int64, len(chunk))
+        of = of[arrays.msg_index]
         dynamic = arrays.usable() & ~rows_static
         for recording, own in self.own.items():
             for parent, child, rows in arrays.select(dynamic & (of == recording)).by_edge():

@@ -18,6 +18,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -77,10 +78,14 @@ def _tf(t: int, robot: Robot, s: float) -> dict[str, object]:
     }
 
 
-def _people(t: int, robot: Robot, s: float) -> dict[str, object]:
+LASER_X = 0.5  # the laser 0.5 m ahead of base_link (/tf_static base_link -> laser)
+
+
+def _people(t: int, robot: Robot, s: float, frame: str) -> dict[str, object]:
     x, y = robot.seen(s)
+    x -= LASER_X if frame == "laser" else 0.0
     return {
-        "header": {"stamp": _stamp(t), "frame_id": "base_link"},
+        "header": {"stamp": _stamp(t), "frame_id": frame},
         "tracks": [
             {
                 "track_id": robot.track,
@@ -96,7 +101,13 @@ def _stamp(t: int) -> dict[str, int]:
 
 
 def write_robot(
-    paths: list[Path], robot: Robot, offset_ns: int = 0, tf: bool = True, people: bool = True
+    paths: list[Path],
+    robot: Robot,
+    offset_ns: int = 0,
+    tf: bool = True,
+    people: bool = True,
+    container: str = "mcap",
+    frame: str = "base_link",
 ) -> int:
     """The robot's log, its time cut evenly over ``paths`` (one file each: a bag split by
     duration), every stamp ``offset_ns`` after the other robot's; ``tf``/``people``: whether
@@ -107,7 +118,7 @@ def write_robot(
     n = 0
     part = DURATION_S // len(paths)
     for k, path in enumerate(paths):
-        with LogWriter(path, "mcap") as writer:
+        with LogWriter(path, container) as writer:  # type: ignore[arg-type]
             for s in range(k * part, (k + 1) * part):
                 t = T0 + s * S + offset_ns
                 if tf and s % POSE_PERIOD_S == 0:
@@ -115,7 +126,7 @@ def write_robot(
                 if people and s % DETECTION_PERIOD_S == 2:  # between two poses
                     kind = "spencer_tracking_msgs/msg/TrackedPersons"
                     half = t + S // 2
-                    writer.write("/tracks", kind, _people(half, robot, s + 0.5), half)
+                    writer.write("/tracks", kind, _people(half, robot, s + 0.5, frame), half)
                     n += 1
     return n
 
@@ -146,7 +157,7 @@ def _assert_both_people(cells: dict[tuple[float, float], float], per_robot: int)
     assert sum(cells.values()) == 2 * per_robot, cells  # nobody anywhere else
 
 
-@settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(offset_ms=st.integers(0, 999), swapped=st.booleans())
 def test_two_robots_at_once_put_each_person_where_they_stood(offset_ms: int, swapped: bool) -> None:
     with tempfile.TemporaryDirectory() as folder:
@@ -156,6 +167,40 @@ def test_two_robots_at_once_put_each_person_where_they_stood(offset_ms: int, swa
         logs = [two, one] if swapped else [one, two]
         cells = where_people_are(logs, Path(folder, "fleet.aion"))
     _assert_both_people(cells, per_robot)
+
+
+def test_two_robots_decoded_message_by_message(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """TF that the numpy decoder does not read (another layout, a rejected chunk) goes
+    through the generic decoder, message by message: each robot's into its own tree too."""
+    import aion_cli.formats.tf_fast as tf_fast
+
+    monkeypatch.setattr(tf_fast, "layout_matches", lambda *args, **kw: False)
+    one, two = tmp_path / "robot1.bag", tmp_path / "robot2.mcap"
+    per_robot = write_robot([one], ROBOT1, container="bag")
+    write_robot([two], ROBOT2, 300_000_000)
+    _assert_both_people(where_people_are([one, two], tmp_path / "fleet.aion"), per_robot)
+
+
+def test_static_transforms_in_a_log_of_their_own_serve_every_robot(tmp_path: Path) -> None:
+    """Both robots detect in ``laser``, which ``/tf_static`` (``base_link -> laser``, recorded
+    once in a log of its own) joins to ``base_link``: every log's static transforms are in
+    each robot's own tree."""
+    from aion_cli.formats.writers import LogWriter
+
+    static = tmp_path / "static.mcap"
+    with LogWriter(static, "mcap") as writer:
+        mount = {
+            "header": {"stamp": _stamp(T0), "frame_id": "base_link"},
+            "child_frame_id": "laser",
+            "transform": {"translation": {"x": LASER_X}, "rotation": {"w": 1.0}},
+        }
+        writer.write("/tf_static", "tf2_msgs/msg/TFMessage", {"transforms": [mount]}, T0)
+    one, two = tmp_path / "robot1.mcap", tmp_path / "robot2.mcap"
+    per_robot = write_robot([one], ROBOT1, frame="laser")
+    write_robot([two], ROBOT2, 700_000_000, frame="laser")
+    _assert_both_people(where_people_are([static, one, two], tmp_path / "fleet.aion"), per_robot)
 
 
 def test_the_map_of_two_robots_is_the_same_in_either_order(tmp_path: Path) -> None:
