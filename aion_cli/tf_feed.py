@@ -26,6 +26,7 @@ from aion_cli.errors import InputError, MessageDecodeError
 from aion_cli.formats.tf_norms import NormTally
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes
+from aion_cli.tf_trees import REST
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
@@ -204,7 +205,7 @@ class TfReader:
                     stats.unstamped += _stamp_unset(decoded, m.log_time_ns)
                 stats.norms.add_message(m.topic, decoded)
                 buffer.add_message(decoded, static=st)
-                own = None if st else self.own.get(m.recording)
+                own = None if st else self.own.get(m.recording, self.own.get(REST))
                 if own is not None:
                     own.add_message(decoded)
         else:
@@ -228,9 +229,11 @@ class TfReader:
 
     def _route(self, chunk: list[RawMessage], arrays: Any, rows_static: np.ndarray) -> None:
         """The decoded ``/tf`` rows of ``chunk`` (``arrays``) also into the buffer of the
-        recording each came from (:attr:`own`)."""
+        recording each came from (:attr:`own`; :data:`~aion_cli.tf_trees.REST`'s: the
+        recordings without one)."""
         of = np.fromiter(map(attrgetter("recording"), chunk), np.int64, len(chunk))
         of = of[arrays.msg_index]
+        of[~np.isin(of, list(self.own))] = REST
         dynamic = arrays.usable() & ~rows_static
         for recording, own in self.own.items():
             for parent, child, rows in arrays.select(dynamic & (of == recording)).by_edge():

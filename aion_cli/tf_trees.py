@@ -3,16 +3,22 @@ time in one build (``aion build robot1.mcap robot2.mcap``) publish the same fram
 (``map -> base_link``), and one buffer of all their ``/tf`` would interpolate each robot's
 detections between both robots' poses (or, at equal stamps, keep one robot's).
 
-The rule (:class:`TfTrees`): when two or more of a build's recordings (a path given; the
-storage files of one rosbag2 bag are one recording) hold ``/tf`` messages of their own, each
-of them has its own TF tree: its own ``/tf`` with every log's ``/tf_static`` (a robot's
-static transforms are often recorded once, in a log of their own). A detection of such a
-recording is moved into the map frame with its own tree when that tree joins the map frame
-to the detection's frame, else with the shared tree (every log's TF, as a build of one log
-reads it); its robot poses are those of its own tree. A recording without ``/tf`` of its own
-(a recording split by topic: the detections in one bag, ``/tf`` in another, over the same
-time), and every build with at most one recording holding ``/tf``, uses the shared tree:
-there is nothing to tell apart, and the map is what it was before the rule.
+The rule (:class:`TfTrees`): a recording (a path given; the storage files of one rosbag2 bag
+are one recording) holding ``/tf`` messages of its own over a time that another such
+recording's overlaps has its own TF tree: its own ``/tf`` with every log's ``/tf_static`` (a
+robot's static transforms are often recorded once, in a log of their own). A detection of
+such a recording is moved into the map frame with its own tree when that tree joins the map
+frame to the detection's frame, else with the shared tree (every log's TF, as a build of one
+log reads it); the robot poses are those of the own trees and those of the other
+recordings' ``/tf`` together. A recording without ``/tf`` of its own (a recording split by
+topic: the detections in one bag, ``/tf`` in another, over the same time) and one whose
+``/tf`` overlaps no other's (one robot's logs one after the other: ``rosbag record --split``
+files, days) use the shared tree, which interpolates across the seam of two such files as
+one file's tree would: when no two recordings' ``/tf`` overlap, the map is what it was
+before the rule.
+
+Overlapping recordings always build in one shard of a parallel build (a shard is a group of
+logs that overlap or touch), so a shard makes the same trees for them as one pass.
 
 Why apart from :mod:`aion_cli.tf_feed` (reading TF) and :mod:`aion_cli.detection_frames`
 (moving rows with a tree): which tree answers is a rule of its own, which the detections and
@@ -36,28 +42,52 @@ if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.topics import TopicPlan
 
-__all__ = ["TfTrees", "own_tf_buffers"]
+__all__ = ["REST", "TfTrees", "overlapping", "own_tf_buffers"]
+
+REST = -1
+"""The key of the tree of the ``/tf`` of every recording without a tree of its own (they
+overlap no other; their robot poses, beside the own trees')."""
 
 _RECORDING = attrgetter("recording")
 
 
 def own_tf_buffers(logset: Any, plan: TopicPlan) -> dict[int, TfBuffer]:
     """An empty buffer per recording of ``logset`` (:meth:`formats.logs.LogSet.
-    recording_times`) holding a message of the build's ``/tf`` topics, by the logs' indexes,
-    for :func:`aion_cli.tf_feed.read_tf_and_times` to fill; none unless two or more do (one
-    recording's own tree would be the shared one)."""
+    recording_times`) holding ``/tf`` messages over a time that another such recording's
+    overlaps (by the logs' indexes), and one (:data:`REST`) for the ``/tf`` of the others,
+    for :func:`aion_cli.tf_feed.read_tf_and_times` to fill; none when no two overlap (one
+    robot's logs of other times: the shared tree is every recording's own)."""
     from aion_cli.formats.tf import TfBuffer
 
     tf_topics = plan.names("tf") if plan.tf else set()
     dynamic = {t for t in tf_topics if not t.endswith("_static")}
-    found = sorted(logset.recording_times(dynamic)) if dynamic else []
-    return {recording: TfBuffer() for recording in found} if len(found) >= 2 else {}
+    spans = logset.recording_times(dynamic) if dynamic else {}
+    found = overlapping(spans)
+    return {recording: TfBuffer() for recording in [*found, REST]} if found else {}
+
+
+def overlapping(spans: dict[int, tuple[int, int]]) -> list[int]:
+    """The keys of ``spans`` (first and last message time) whose span overlaps another's
+    (sharing more than an instant), sorted: sorted by start, a span overlaps an earlier one
+    when it starts before the latest end before it, and a later one when the next start
+    comes before its end."""
+    if len(spans) < 2:
+        return []
+    keys = np.array(list(spans), np.int64)
+    lo, hi = np.array(list(spans.values()), np.int64).T
+    order = np.lexsort((hi, lo))
+    keys, lo, hi = keys[order], lo[order], hi[order]
+    reach = np.maximum.accumulate(hi)
+    earlier = np.concatenate([[False], lo[1:] < reach[:-1]])
+    later = np.concatenate([lo[1:] < hi[:-1], [False]])
+    return sorted(keys[earlier | later].tolist())
 
 
 @dataclass
 class TfTrees:
-    """The shared TF buffer of a build and, per recording with ``/tf`` of its own, that
-    recording's own tree (module docstring). ``own`` is empty when no recording needs one:
+    """The shared TF buffer of a build and, per recording with ``/tf`` of its own over a time
+    another's overlaps, that recording's own tree, and the tree of the other recordings'
+    ``/tf`` (:data:`REST`; module docstring). ``own`` is empty when no recording needs one:
     then every lookup is the shared buffer's, as before the rule."""
 
     shared: TfBuffer | None
@@ -126,10 +156,11 @@ class TfTrees:
         return joins
 
     def poses(self, map_frame: str, base_frame: str) -> Trajectory | None:
-        """The robot poses of the recordings' own trees, all of them in time order (ties by
-        position, so the order the logs were given does not matter), where at least one own
-        tree has a ``map_frame -> base_frame`` trajectory; None otherwise (the shared
-        buffer's trajectory then stands, as before the rule)."""
+        """The robot poses of the recordings' own trees and of the other recordings' ``/tf``
+        (:data:`REST`), all of them in time order (ties by position, so the order the logs
+        were given does not matter), where at least one tree has a ``map_frame ->
+        base_frame`` trajectory; None otherwise (the shared buffer's trajectory then stands,
+        as before the rule)."""
         from aion_cli.errors import TransformError
 
         if not self.split:

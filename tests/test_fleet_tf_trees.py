@@ -123,7 +123,7 @@ def write_robot(
                 t = T0 + s * S + offset_ns
                 if tf and s % POSE_PERIOD_S == 0:
                     writer.write("/tf", "tf2_msgs/msg/TFMessage", _tf(t, robot, s), t)
-                if people and s % DETECTION_PERIOD_S == 2:  # between two poses
+                if people and s % DETECTION_PERIOD_S == 4 and s + 1 < DURATION_S:  # between poses
                     kind = "spencer_tracking_msgs/msg/TrackedPersons"
                     half = t + S // 2
                     writer.write("/tracks", kind, _people(half, robot, s + 0.5, frame), half)
@@ -227,6 +227,17 @@ def test_a_robot_recorded_as_a_split_bag_has_one_tree(tmp_path: Path) -> None:
     _assert_both_people(where_people_are([bag, two], tmp_path / "fleet.aion"), per_robot)
 
 
+def test_one_robots_files_one_after_the_other_keep_one_tree(tmp_path: Path) -> None:
+    """Robot 1's log cut in two files given as two paths (``rosbag record --split``): their
+    ``/tf`` overlaps no other's, so the shared tree serves both and interpolates across the
+    seam (the detection half a second after the first file's last pose, between it and the
+    second file's first pose, is placed as in the uncut log); a tree per file would drop it."""
+    first, second = tmp_path / "robot1_0.mcap", tmp_path / "robot1_1.mcap"
+    per_robot = write_robot([first, second], ROBOT1)
+    cells = where_people_are([first, second], tmp_path / "split.aion")
+    assert _at(cells, ROBOT1.person) == per_robot == sum(cells.values()), cells
+
+
 def test_a_recording_split_by_topic_resolves_with_the_other_logs_tf(tmp_path: Path) -> None:
     """Robot 1's detections in one log and its ``/tf`` in another, over the same time (no
     log of its own holds both): the shared tree moves the detections, as before."""
@@ -251,3 +262,13 @@ def test_two_robots_in_parallel_shards_equal_one_pass(tmp_path: Path) -> None:
     assert (_at(cells, ROBOT1.person), _at(cells, ROBOT2.person)) == (2 * per_robot, per_robot)
     where_people_are([one, two, later], par, workers=2)
     assert differences(load_map(seq).state, load_map(par).state) == []
+
+
+def test_which_recordings_overlap() -> None:
+    from aion_cli.tf_trees import overlapping
+
+    assert overlapping({0: (0, 10), 1: (10, 20), 2: (30, 40)}) == []  # touching: one after another
+    assert overlapping({0: (0, 10), 1: (5, 20), 2: (30, 40)}) == [0, 1]
+    assert overlapping({2: (30, 40), 0: (0, 100), 1: (5, 20)}) == [0, 1, 2]  # inside a long one
+    assert overlapping({0: (0, 10), 1: (0, 10)}) == [0, 1]
+    assert overlapping({0: (0, 10)}) == []
