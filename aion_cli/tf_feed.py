@@ -155,7 +155,8 @@ class TfReader:
     decoder reads, else (and for a chunk it rejects) message by message with the log's own
     definitions, a message that cannot be decoded skipped and counted in ``stats``. Topics
     named ``*_static`` hold static transforms. ``own``: per recording, a buffer that also
-    receives the ``/tf`` (not static) transforms of that recording's messages."""
+    receives the ``/tf`` (not static) transforms of that recording's messages (the one keyed
+    :data:`~aion_cli.tf_trees.REST` those of the recordings without a buffer of their own)."""
 
     def __init__(
         self,
