@@ -108,6 +108,7 @@ def write_robot(
     people: bool = True,
     container: str = "mcap",
     frame: str = "base_link",
+    sessions_s: tuple[int, ...] = (0,),
 ) -> int:
     """The robot's log, its time cut evenly over ``paths`` (one file each: a bag split by
     duration), every stamp ``offset_ns`` after the other robot's; ``tf``/``people``: whether
@@ -119,15 +120,16 @@ def write_robot(
     part = DURATION_S // len(paths)
     for k, path in enumerate(paths):
         with LogWriter(path, container) as writer:  # type: ignore[arg-type]
-            for s in range(k * part, (k + 1) * part):
-                t = T0 + s * S + offset_ns
-                if tf and s % POSE_PERIOD_S == 0:
-                    writer.write("/tf", "tf2_msgs/msg/TFMessage", _tf(t, robot, s), t)
-                if people and s % DETECTION_PERIOD_S == 4 and s + 1 < DURATION_S:  # between poses
-                    kind = "spencer_tracking_msgs/msg/TrackedPersons"
-                    half = t + S // 2
-                    writer.write("/tracks", kind, _people(half, robot, s + 0.5, frame), half)
-                    n += 1
+            for session in sessions_s:  # (the log again, that many seconds later)
+                for s in range(k * part, (k + 1) * part):
+                    t = T0 + s * S + offset_ns + session * S
+                    if tf and s % POSE_PERIOD_S == 0:
+                        writer.write("/tf", "tf2_msgs/msg/TFMessage", _tf(t, robot, s), t)
+                    if people and s % DETECTION_PERIOD_S == 4 and s + 1 < DURATION_S:
+                        kind = "spencer_tracking_msgs/msg/TrackedPersons"
+                        half = t + S // 2  # between two poses
+                        writer.write("/tracks", kind, _people(half, robot, s + 0.5, frame), half)
+                        n += 1
     return n
 
 
@@ -261,6 +263,22 @@ def test_two_robots_in_parallel_shards_equal_one_pass(tmp_path: Path) -> None:
     cells = where_people_are([one, two, later], seq)
     assert (_at(cells, ROBOT1.person), _at(cells, ROBOT2.person)) == (2 * per_robot, per_robot)
     where_people_are([one, two, later], par, workers=2)
+    assert differences(load_map(seq).state, load_map(par).state) == []
+
+
+def test_two_robots_cut_in_time_shards_equal_one_pass(tmp_path: Path) -> None:
+    """Both robots record a morning and an afternoon session in one log each: the two logs
+    overlap (one group), which a parallel build cuts at the quiet midday into time shards,
+    each reading both logs' whole TF into the same trees."""
+    from aion_cli.engine.compare import differences
+
+    one, two = tmp_path / "robot1.mcap", tmp_path / "robot2.mcap"
+    per_session = write_robot([one], ROBOT1, sessions_s=(0, 6 * 3600))
+    write_robot([two], ROBOT2, 600_000_000, sessions_s=(0, 6 * 3600))
+    seq, par = tmp_path / "seq.aion", tmp_path / "par.aion"
+    _assert_both_people(where_people_are([one, two], seq), per_session)
+    report = build_map(BuildOptions(logs=(one, two), output=par, workers=2))
+    assert len(report.to_dict()["workers"]) == 2, report.to_dict()["workers"]  # time shards
     assert differences(load_map(seq).state, load_map(par).state) == []
 
 
