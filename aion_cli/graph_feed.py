@@ -146,14 +146,16 @@ class GraphFeed:
 
     def unread_hint(self, graph_topics: set[str]) -> UnreadHint | None:
         """The scene graphs :meth:`thin` will drop, for the reader: those logged at a time at
-        which the schedule uses no graph (None when it uses every graph). A reader may yield
-        them unread (:data:`formats.raw.UNREAD`): an MCAP chunk whose tail they are is then
-        decompressed only up to them."""
-        if self.used is None or self.unread_times.size == 0:
+        which the schedule uses no graph (None before a schedule). A reader may yield them
+        unread (:data:`formats.raw.UNREAD`): an MCAP chunk whose tail they are is then
+        decompressed only up to them. The graphs it reads may come as read-only views
+        (``views``: the stream reads, compares and decodes them as memoryviews, and keeps
+        them no longer than it would keep their bytes)."""
+        if self.used is None:
             return None
         from aion_cli.formats.raw import UnreadHint
 
-        return UnreadHint(frozenset(graph_topics), self.unread_times)
+        return UnreadHint(frozenset(graph_topics), self.unread_times, views=True)
 
     def agents_since(self, t_ns: int) -> None:
         """Feed no agent pose logged before ``t_ns``. A shard of a parallel build starts

@@ -322,7 +322,7 @@ class LogSet:
         if decoder is None:
             decoder = self._decoders[key] = self._make_decoder(msg)
         try:
-            return decoder(msg.data)
+            return decoder(bytes(msg.data))  # the same object for bytes; a view's copy
         except Exception as exc:  # rosbags raises struct, index and value errors on bad bytes
             raise MessageDecodeError(
                 f"cannot decode a {msg.msgtype} message on {msg.topic} at {msg.log_time_ns} ns "

@@ -32,13 +32,13 @@ import numpy.typing as npt
 from aion_cli.formats import limits as caps
 from aion_cli.formats import mcap_records as mr
 from aion_cli.formats import recorded
-from aion_cli.formats.raw import UNREAD
+from aion_cli.formats.raw import UNREAD, Payload
 
 _SMALLEST_TAIL = 0.5
 """The least share of a chunk's decompressed bytes a droppable tail must have for the chunk to
 be read in part (the rest is read whole: CRC-checked)."""
 
-Selected = list[tuple[int, int, bytes]]
+Selected = list[tuple[int, int, Payload]]
 
 
 def read_head(
@@ -50,6 +50,7 @@ def read_head(
     unread_channels: set[int],
     unread_times: npt.NDArray[np.int64],
     limits: caps.ReadLimits,
+    views: frozenset[int] = frozenset(),
 ) -> tuple[Selected, list[mr.Oversized]] | None:
     """The chunk's wanted messages as :func:`formats.mcap_records.chunk_messages` gives them
     (sorted by log time, ``(log_time, channel_id, data)``; and those over the message cap),
@@ -57,7 +58,8 @@ def read_head(
     None when the chunk is to be read whole (see the module docstring). ``size_of_file``: the
     bytes of the file ``f`` reads; ``index``: the chunk's
     ChunkIndex record; ``head``: its chunk record (:func:`formats.mcap_records.read_chunk_head`);
-    messages on ``unread_channels`` logged at ``unread_times`` (sorted) may be left unread."""
+    messages on ``unread_channels`` logged at ``unread_times`` (sorted) may be left unread;
+    ``views``: as :func:`formats.mcap_records.chunk_messages`'s."""
     size = int(head.uncompressed_size)
     if size <= 0 or head.compression not in ("", "zstd", "lz4") or size > limits.max_chunk_bytes:
         return None
@@ -86,7 +88,7 @@ def read_head(
     if buf is None:
         return None
     try:
-        selected, big, seen = mr.chunk_messages(buf, wanted, limits.max_message_bytes)
+        selected, big, seen = mr.chunk_messages(buf, wanted, limits.max_message_bytes, views)
     except caps.ChunkError:
         return None
     if seen + len(big) != first:
@@ -96,6 +98,15 @@ def read_head(
         selected.extend((int(log_time[k]), int(channel[k]), UNREAD) for k in tail.tolist())
         selected.sort(key=itemgetter(0))  # stable: the tail follows the head, as in the chunk
     return selected, big
+
+
+def may_leave_a_tail(index: Any, wanted: set[int], unread_channels: set[int]) -> bool:
+    """Whether the chunk of ``index`` (its ChunkIndex, or None) holds messages a read may leave
+    unread: on channels not wanted, or on those of an unread hint (its MessageIndex records
+    list its channels); :func:`read_head` is worth calling only then."""
+    if index is None or not index.message_index_offsets:
+        return False
+    return any(c not in wanted or c in unread_channels for c in index.message_index_offsets)
 
 
 def _among(channel: npt.NDArray[np.int64], ids: set[int]) -> npt.NDArray[np.bool_]:

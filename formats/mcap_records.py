@@ -11,7 +11,8 @@ summary indexes without checking it against the data. Here:
   reads and decompresses the data with the caps of :mod:`formats.limits` (the declared size is
   checked before anything is decompressed) and checks the CRC-32 of the records.
 - :func:`chunk_messages` / :func:`chunk_records` split the records of a decompressed chunk;
-  messages over the message cap are left out and reported.
+  messages over the message cap are left out and reported; a payload that fills most of its
+  chunk may come as a view of it, on the channels the caller asks.
 - :func:`formats.mcap_summary.check_summary` compares the summary with the data section,
   with :func:`walk` and :func:`read_index_heads` (no chunk is decompressed).
 """
@@ -20,12 +21,16 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Generator, Iterator
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from operator import itemgetter
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 from aion_cli.formats import limits as caps
 from aion_cli.formats.crc import crc32
+
+if TYPE_CHECKING:
+    from aion_cli.formats.raw import Payload
 
 MAGIC = b"\x89MCAP0\r\n"
 """The bytes an MCAP file starts and ends with."""
@@ -207,24 +212,33 @@ def read_chunk(
     return buf
 
 
+Record = tuple[int, int, "Payload"]
+"""``(log time, channel id, data)`` of a message read out of a chunk."""
+
 Oversized = tuple[int, int, int]
 """``(channel id, log time, payload bytes)`` of a message left out for its size."""
 
 
 def chunk_messages(
-    buf: bytes, wanted: set[int] | None, max_message: int
-) -> tuple[list[tuple[int, int, bytes]], list[Oversized], int]:
+    buf: bytes, wanted: set[int] | None, max_message: int, views: AbstractSet[int] = frozenset()
+) -> tuple[list[Record], list[Oversized], int]:
     """``(log_time, channel_id, data)`` of the messages in a chunk's records on ``wanted``
     channels (all when None), sorted by log time; the messages of any channel left out because
     their data is over ``max_message`` bytes; how many messages within the cap the chunk holds
     on any channel. Parses the record heads with struct and slices only the wanted payloads.
-    :class:`formats.limits.ChunkError` when records overrun the chunk."""
-    out: list[tuple[int, int, bytes]] = []
+    :class:`formats.limits.ChunkError` when records overrun the chunk.
+
+    On ``views`` channels, a payload of at least half of ``buf`` is a read-only memoryview
+    of ``buf`` instead of a copy (a scene graph of megabytes that fills its chunk: the copy
+    cost as much as a third of decompressing it); ``buf`` must be a fresh ``bytes`` the caller
+    never reuses (a decompressed chunk), and a view keeps at most twice its bytes alive."""
+    out: list[Record] = []
     big: list[Oversized] = []
     seen = 0
     unpack_record = RECORD_HEAD.unpack_from
     unpack_message = MESSAGE_HEAD.unpack_from
     pos, end = 0, len(buf)
+    view = memoryview(buf).toreadonly() if views else None
     while pos < end:
         if pos + RECORD_HEAD.size > end:
             raise caps.ChunkError("its records overrun the chunk")
@@ -240,7 +254,11 @@ def chunk_messages(
                 continue
             seen += 1
             if wanted is None or channel_id in wanted:
-                out.append((log_time, channel_id, buf[body + MESSAGE_PREFIX : pos]))
+                first = body + MESSAGE_PREFIX
+                if view is not None and 2 * (pos - first) >= end and channel_id in views:
+                    out.append((log_time, channel_id, view[first:pos]))
+                else:
+                    out.append((log_time, channel_id, buf[first:pos]))
     if pos != end:
         raise caps.ChunkError("its records overrun the chunk")
     out.sort(key=_first)  # stable: ties keep record order

@@ -42,8 +42,12 @@ from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msg
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-_Skip = tuple[set[int], "npt.NDArray[np.int64]"]
-"""Messages a chunk read may leave unread: their channels and sorted log times."""
+    from aion_cli.formats.mcap_records import Record
+    from aion_cli.formats.raw import Payload
+
+_Skip = tuple[set[int], "npt.NDArray[np.int64]", frozenset[int]]
+"""Messages a chunk read may leave unread: their channels and sorted log times; and the
+channels whose payloads may be views (:attr:`formats.raw.UnreadHint.views`)."""
 
 
 def _schema_encoding_ok(encoding: str) -> bool:
@@ -265,7 +269,8 @@ class _McapSource(_McapIndexed):
     ) -> Iterator[RawMessage]:
         """See :meth:`_Source.messages`; with ``between``, indexed chunks whose messages all
         lie outside it are not read; with ``unread``, a chunk read by index is decompressed
-        only up to a tail of such messages (:mod:`formats.mcap_partial`)."""
+        only up to a tail of such messages (:mod:`formats.mcap_partial`), and its ``views``
+        are passed on (:func:`formats.mcap_records.chunk_messages`)."""
         wanted = {
             cid
             for cid, (topic, _, _) in self._channels.items()
@@ -273,10 +278,11 @@ class _McapSource(_McapIndexed):
         }
         if not wanted:
             return iter(())
-        skip: _Skip = (set(), np.zeros(0, np.int64))
-        if unread is not None and unread.times.size:
-            channels = {cid for cid in wanted if self._channels[cid][0] in unread.topics}
-            skip = (channels, unread.times)
+        skip: _Skip = (set(), np.zeros(0, np.int64), frozenset())
+        if unread is not None:
+            named = {cid for cid in wanted if self._channels[cid][0] in unread.topics}
+            views = frozenset(named) if unread.views else frozenset()
+            skip = (named if unread.times.size else set(), unread.times, views)
         return self._raw_messages(wanted, between, skip)
 
     def skips_by_time(self) -> bool:
@@ -323,7 +329,7 @@ class _McapSource(_McapIndexed):
                     continue
             yield RawMessage(topic, msgtype, log_time, data, encoding)
 
-    def records(self, channel_ids: Iterable[int] | None = None) -> Iterator[tuple[int, int, bytes]]:
+    def records(self, channel_ids: Iterable[int] | None = None) -> Iterator[Record]:
         """``(log_time, channel_id, data)`` of every message on ``channel_ids`` (all channels
         of the file when None, ROS or not: see :attr:`channel_topics`), in log-time order, read
         exactly as :meth:`messages` reads ROS topics. For tests of the MCAP reading itself on
@@ -333,7 +339,7 @@ class _McapSource(_McapIndexed):
             return iter(())
         return self._records(wanted)
 
-    def _records(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+    def _records(self, wanted: set[int]) -> Iterator[Record]:
         """The messages of the ``wanted`` channels by the fastest path the file allows."""
         if self._chunk_indexes is None:
             return self._records_linear(wanted)
@@ -353,12 +359,13 @@ class _McapSource(_McapIndexed):
         wanted: set[int],
         between: tuple[int, int] | None = None,
         skip: _Skip | None = None,
-    ) -> Iterator[list[tuple[int, int, bytes]]]:
+    ) -> Iterator[list[Record]]:
         """Time order by chunk: chunk indexes sorted by start time do not overlap, so each
         chunk's messages sorted by log time (one list per chunk) continue the stream. With
         ``between`` (``[lo, hi)``), chunks whose index puts every message outside are
         skipped; with ``skip`` (channels, sorted log times), a chunk's tail of such messages
-        is left unread (:func:`formats.mcap_partial.read_head`)."""
+        is left unread (:func:`formats.mcap_partial.read_head`) and payloads on its view
+        channels that fill most of their chunk are views of it."""
         assert self._chunk_indexes is not None
         for index in self._chunk_indexes:
             if between is not None and (
@@ -372,25 +379,28 @@ class _McapSource(_McapIndexed):
 
     def _read_indexed(
         self, offset: int, wanted: set[int], index: Any = None, skip: _Skip | None = None
-    ) -> list[tuple[int, int, bytes]]:
+    ) -> list[Record]:
         """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
         a warning) when it cannot be read. Opens the file for this chunk only. With ``index``
         (its ChunkIndex) and ``skip``, only its head where a tail of messages on channels not
         wanted or named by ``skip`` can be left unread (:func:`formats.mcap_partial.read_head`)."""
+        from aion_cli.formats import mcap_partial
         from aion_cli.formats import mcap_records as mr
 
+        views = skip[2] if skip is not None else frozenset()
         try:
             with self.path.open("rb") as f:
                 head = mr.read_chunk_head(f, offset, self._size, self._lengths.get(offset))
-                if skip is not None and _may_leave_a_tail(index, wanted, skip[0]):
-                    from aion_cli.formats.mcap_partial import read_head
-
-                    part = read_head(f, self._size, index, head, wanted, *skip, self._limits)
+                if skip is not None and mcap_partial.may_leave_a_tail(index, wanted, skip[0]):
+                    part = mcap_partial.read_head(
+                        f, self._size, index, head, wanted, *skip[:2], self._limits, views
+                    )
                     if part is not None:
                         self._oversized(part[1])
                         return part[0]
                 buf = mr.read_chunk(f, head, self._limits, mcap_linear._decompress)
-            selected, big, _ = mr.chunk_messages(buf, wanted, self._limits.max_message_bytes)
+            cap = self._limits.max_message_bytes
+            selected, big, _ = mr.chunk_messages(buf, wanted, cap, views)
         except ValueError as exc:  # ChunkError and the head's ValueError
             self._bad_chunks[offset] = _why(exc)
             self._chunk_lost(offset)
@@ -399,13 +409,13 @@ class _McapSource(_McapIndexed):
         self._oversized(big)
         return selected
 
-    def _records_merged(self, wanted: set[int]) -> Iterator[tuple[int, int, bytes]]:
+    def _records_merged(self, wanted: set[int]) -> Iterator[Record]:
         """Overlapping chunks, merged in log-time order: a chunk is read when the stream
         reaches its start time, so only the chunks overlapping one moment are held; ties keep
         chunk order."""
         assert self._chunk_indexes is not None
         chunks = [c for c in self._chunk_indexes if self._selected(c, wanted)]
-        heap: list[tuple[int, int, int, bytes]] = []
+        heap: list[tuple[int, int, int, Payload]] = []
         seq = 0
         k = 0
         while k < len(chunks) or heap:
@@ -435,14 +445,6 @@ def _refused(index: Any, limits: ReadLimits) -> str | None:
     if size > limits.max_chunk_bytes:
         return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
     return None
-
-
-def _may_leave_a_tail(index: Any, wanted: set[int], unread_channels: set[int]) -> bool:
-    """Whether the chunk of ``index`` holds messages a read may leave unread: on channels not
-    wanted, or on those of an unread hint (its MessageIndex records list its channels)."""
-    if index is None or not index.message_index_offsets:
-        return False
-    return any(c not in wanted or c in unread_channels for c in index.message_index_offsets)
 
 
 def _chunks_overlap(indexes: list[Any]) -> bool:

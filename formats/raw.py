@@ -16,6 +16,9 @@ import numpy.typing as npt
 from aion_cli.errors import InputError, LogFormatError
 
 Encoding = Literal["cdr", "ros1"]
+Payload = bytes | memoryview
+"""A message's payload: ``bytes``, or a read-only view of a reader's decompressed chunk where
+the caller asked for views (:attr:`UnreadHint.views`)."""
 
 
 def normalize_msgtype(msgtype: str) -> str:
@@ -59,7 +62,8 @@ class TopicInfo:
 @dataclass(frozen=True)
 class RawMessage:
     """One serialized message. ``data`` is the wire payload: CDR with its 4-byte encapsulation
-    header for ROS 2, plain ROS 1 serialization for ROS 1.
+    header for ROS 2, plain ROS 1 serialization for ROS 1; ``bytes``, or a read-only
+    ``memoryview`` only on the topics of an :class:`UnreadHint` that asked for views.
 
     ``recording``: which recording of a :class:`~formats.logs.LogSet` the message came from
     (the position of the path it was opened from; the storage files of one rosbag2 bag share
@@ -69,7 +73,7 @@ class RawMessage:
     topic: str
     msgtype: str
     log_time_ns: int
-    data: bytes
+    data: Payload
     encoding: Encoding
     recording: ClassVar[int] = 0
 
@@ -78,7 +82,7 @@ _new_object = object.__new__
 
 
 def raw_message(
-    topic: str, msgtype: str, log_time_ns: int, data: bytes, encoding: Encoding
+    topic: str, msgtype: str, log_time_ns: int, data: Payload, encoding: Encoding
 ) -> RawMessage:
     """``RawMessage(topic, msgtype, log_time_ns, data, encoding)``, the same instance (equal,
     same hash and repr), made without the frozen dataclass's ``__init__``, which sets each
@@ -120,10 +124,18 @@ class UnreadHint:
     """Messages the caller will drop without looking at their payloads: those on ``topics``
     logged at one of ``times`` (sorted, unique, log time ns). A reader may yield them with
     :data:`UNREAD` as their data, in their place in the stream, where that saves reading
-    them (an MCAP chunk's tail, :mod:`formats.mcap_partial`); it may also yield them read."""
+    them (an MCAP chunk's tail, :mod:`formats.mcap_partial`); it may also yield them read.
+
+    ``views``: the caller also takes the payloads it gets on ``topics`` as read-only
+    ``memoryview`` s (it neither changes them nor needs ``bytes`` methods). A reader may then
+    give a large payload as a view of the chunk it decompressed instead of a copy
+    (:func:`formats.mcap_records.chunk_messages`: one at least half of its chunk, so a view
+    keeps at most twice its own bytes alive; the chunk is a fresh ``bytes`` per read, never
+    reused, so the view stays valid as long as the caller keeps it)."""
 
     topics: frozenset[str]
     times: npt.NDArray[np.int64]
+    views: bool = False
 
 
 _SPECIAL_INPUTS = (
