@@ -100,6 +100,31 @@ def read_head(
     return selected, big
 
 
+def unread_chunk(
+    index: Any,
+    counts: dict[int, int] | None,
+    wanted: set[int],
+    unread_channels: set[int],
+    unread_times: npt.NDArray[np.int64],
+) -> Selected | None:
+    """The chunk's wanted messages, every one :data:`UNREAD`, from its ChunkIndex ``index``
+    and its message counts per channel (``counts``, from its MessageIndex records, checked
+    against the statistics at open) alone, when they are on one channel of ``unread_channels``
+    and all logged at one time (the chunk's start and end time) that ``unread_times`` lists:
+    a chunk of a graph the build leaves out and nothing else it reads (a log of scene graphs
+    alone). None otherwise: the chunk is read. Nothing of the chunk is read, as nothing of a
+    tail :func:`read_head` leaves unread is (no CRC either way)."""
+    if index is None or not counts or index.message_start_time != index.message_end_time:
+        return None
+    on = [c for c, n in counts.items() if n > 0 and c in wanted]
+    if len(on) != 1 or on[0] not in unread_channels:
+        return None
+    t = np.asarray(index.message_start_time, np.int64).reshape(1)
+    if not _listed(t, unread_times)[0]:
+        return None
+    return [(int(t[0]), on[0], UNREAD)] * counts[on[0]]
+
+
 def may_leave_a_tail(index: Any, wanted: set[int], unread_channels: set[int]) -> bool:
     """Whether the chunk of ``index`` (its ChunkIndex, or None) holds messages a read may leave
     unread: on channels not wanted, or on those of an unread hint (its MessageIndex records

@@ -147,13 +147,13 @@ class _McapSource(_McapIndexed):
             self._chunk_indexes = sorted(
                 summary.chunk_indexes, key=lambda c: (c.message_start_time, c.chunk_start_offset)
             )
-            self._by_chunk = not _chunks_overlap(self._chunk_indexes)
+            self._by_chunk = not mcap_summary.chunks_overlap(self._chunk_indexes)
             step = clock_steps.mcap_step_warning(path, self._size, self._chunk_indexes)
             if step is not None:  # between chunks or inside one
                 self._warn(step)
             self._bad_chunks.update(check.bad_chunks)
             for index in self._chunk_indexes:  # what the index says is refused already
-                why = _refused(index, self._limits)
+                why = mcap_summary.refused(index, self._limits)
                 if why is not None:
                     self._bad_chunks.setdefault(index.chunk_start_offset, why)
             self._chunk_counts = check.counts
@@ -383,11 +383,17 @@ class _McapSource(_McapIndexed):
         """The wanted messages of the indexed chunk at ``offset``, sorted by log time; [] (and
         a warning) when it cannot be read. Opens the file for this chunk only. With ``index``
         (its ChunkIndex) and ``skip``, only its head where a tail of messages on channels not
-        wanted or named by ``skip`` can be left unread (:func:`formats.mcap_partial.read_head`)."""
+        wanted or named by ``skip`` can be left unread (:func:`formats.mcap_partial.read_head`),
+        nothing where its index says all of it can (:func:`formats.mcap_partial.unread_chunk`)."""
         from aion_cli.formats import mcap_partial
         from aion_cli.formats import mcap_records as mr
 
         views = skip[2] if skip is not None else frozenset()
+        if skip is not None and skip[1].size:  # a chunk of graphs left out: its index says so
+            counts = self._chunk_counts.get(offset)
+            alone = mcap_partial.unread_chunk(index, counts, wanted, *skip[:2])
+            if alone is not None:
+                return alone
         try:
             with self.path.open("rb") as f:
                 head = mr.read_chunk_head(f, offset, self._size, self._lengths.get(offset))
@@ -432,28 +438,6 @@ class _McapSource(_McapIndexed):
 
     def close(self) -> None:
         """Nothing to release: the file is open only while a read runs."""
-
-
-def _refused(index: Any, limits: ReadLimits) -> str | None:
-    """Why the chunk a (checked) chunk index describes will not be read, from the index
-    alone: an unknown compression, or more than the chunk cap; None when it may be read."""
-    from aion_cli.formats import limits as caps
-
-    if index.compression not in ("", "zstd", "lz4"):
-        return str(caps.UnknownCompressionError(f"unknown compression {index.compression[:40]!r}"))
-    size = index.uncompressed_size if index.compression else index.compressed_size
-    if size > limits.max_chunk_bytes:
-        return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
-    return None
-
-
-def _chunks_overlap(indexes: list[Any]) -> bool:
-    end = -1
-    for index in indexes:
-        if index.message_start_time < end:
-            return True
-        end = max(end, index.message_end_time)
-    return False
 
 
 def _summary_lacks_records(channels: dict[int, Any], schemas: dict[int, Any], count: int) -> bool:

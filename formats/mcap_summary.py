@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 from aion_cli.engine.time_text import iso_utc
 from aion_cli.formats.mcap_records import (
@@ -28,6 +28,9 @@ from aion_cli.formats.mcap_records import (
     read_index_heads,
     walk,
 )
+
+if TYPE_CHECKING:
+    from aion_cli.formats.limits import ReadLimits
 
 
 @dataclass
@@ -267,3 +270,27 @@ def _compare_statistics(
                 f"its statistics say the messages end at {iso_utc(statistics.message_end_time)}, "
                 f"its chunks at {iso_utc(last)}"
             )
+
+
+def refused(index: Any, limits: ReadLimits) -> str | None:
+    """Why the chunk a (checked) chunk index describes will not be read, from the index
+    alone: an unknown compression, or more than the chunk cap; None when it may be read."""
+    from aion_cli.formats import limits as caps
+
+    if index.compression not in ("", "zstd", "lz4"):
+        return str(caps.UnknownCompressionError(f"unknown compression {index.compression[:40]!r}"))
+    size = index.uncompressed_size if index.compression else index.compressed_size
+    if size > limits.max_chunk_bytes:
+        return str(caps.chunk_over_limit(size, limits.max_chunk_bytes))
+    return None
+
+
+def chunks_overlap(indexes: list[Any]) -> bool:
+    """Whether chunk indexes sorted by start time overlap in time (then the reader merges
+    their messages instead of reading chunk after chunk)."""
+    end = -1
+    for index in indexes:
+        if index.message_start_time < end:
+            return True
+        end = max(end, index.message_end_time)
+    return False

@@ -354,3 +354,66 @@ def test_one_zstd_decompressor_per_thread_reads_every_chunk_after_any_other() ->
     thread.join()
     assert other[0][0] is not mine
     assert other[0][1] == raws[1]
+
+
+def _write_graphs(path: Path, chunk_size: int, seconds: int = 12) -> list[int]:
+    """Scene graphs alone (no tracks), one a second, 6,000 distinct bytes each."""
+    from mcap.writer import CompressionType, Writer
+
+    rng = np.random.default_rng(3)
+    times = [T0 + second * S for second in range(seconds)]
+    with path.open("wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD, chunk_size=chunk_size)
+        w.start(profile="ros2", library="test")
+        dsg = w.register_schema("hydra_msgs/msg/DsgUpdate", "ros2msg", b"")
+        channel = w.register_channel("/dsg", "cdr", dsg)
+        for t in times:
+            w.add_message(channel, t, rng.bytes(GRAPH_BYTES), t)
+        w.finish()
+    return times
+
+
+def _chunk_reads(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Offsets of the chunk records the reader starts to read (their heads)."""
+    from aion_cli.formats import mcap_records
+
+    offsets: list[int] = []
+    real = mcap_records.read_chunk_head
+
+    def counting(f: Any, offset: int, *args: Any) -> Any:
+        offsets.append(offset)
+        return real(f, offset, *args)
+
+    monkeypatch.setattr(mcap_records, "read_chunk_head", counting)
+    return offsets
+
+
+def test_a_chunk_of_a_left_out_graph_alone_is_not_read_at_all(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A log of scene graphs alone, a chunk each: the hinted graphs (three of four) come
+    UNREAD without their chunks being opened (the chunk index says each holds one graph at a
+    listed time); the others are read, with their bytes; the stream as without the hint. With
+    two graphs per chunk (start and end times differ) every chunk is opened."""
+    log = tmp_path / "graphs.mcap"
+    graphs = _write_graphs(log, chunk_size=GRAPH_BYTES)
+    assert set(graphs) <= _chunk_end_times(log)
+    whole = _stream(log)
+    dropped = [t for k, t in enumerate(graphs) if k % 4]
+    reads = _chunk_reads(monkeypatch)
+    hinted = _stream(log, UnreadHint(frozenset({"/dsg"}), np.array(dropped, np.int64)))
+    assert [(topic, t) for topic, t, _ in hinted] == [(topic, t) for topic, t, _ in whole]
+    assert [t for _, t, data in hinted if isinstance(data, Unread)] == dropped
+    for (_, t, got), (_, _, expected) in zip(hinted, whole, strict=True):
+        if t not in dropped:
+            assert got == expected
+            assert len(got) == GRAPH_BYTES
+    assert len(reads) == len(graphs) - len(dropped)  # the used graphs' chunks only
+    pairs = tmp_path / "pairs.mcap"
+    _write_graphs(pairs, chunk_size=2 * GRAPH_BYTES)
+    chunks = len(_chunk_end_times(pairs))
+    assert chunks == len(graphs) // 2
+    reads.clear()
+    hinted = _stream(pairs, UnreadHint(frozenset({"/dsg"}), np.array(graphs, np.int64)))
+    assert [t for _, t, _ in hinted] == graphs
+    assert len(reads) == chunks

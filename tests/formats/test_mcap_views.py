@@ -114,8 +114,10 @@ def test_chunk_messages_views_only_the_channels_asked_and_checks_the_records() -
     selected, oversized, seen = mcap_records.chunk_messages(buf, {1, 2}, 1 << 20, {1, 2})
     assert (seen, oversized) == (2, [])
     assert [(t, c) for t, c, _ in selected] == [(3, 2), (5, 1)]
-    assert type(selected[0][2]) is bytes and selected[0][2] == small
-    assert isinstance(selected[1][2], memoryview) and selected[1][2] == big
+    assert type(selected[0][2]) is bytes
+    assert selected[0][2] == small
+    assert isinstance(selected[1][2], memoryview)
+    assert selected[1][2] == big
     assert selected[1][2].obj is buf
     plain, _, _ = mcap_records.chunk_messages(buf, {1, 2}, 1 << 20)
     assert all(type(data) is bytes for _, _, data in plain)
