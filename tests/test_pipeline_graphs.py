@@ -270,8 +270,9 @@ def test_graphs_left_out_are_not_decompressed_and_the_map_is_the_same(
 ) -> None:
     """A live-Hydra stream whose every chunk ends with its scene graph (300 moving places at
     1 Hz, 16 KB chunks; the benchmarks' generator): with the default ``--graph-period`` the
-    chunks of the graphs left out are decompressed only up to their graph (read_head), and the
-    map and report equal those of a build that reads every chunk whole."""
+    chunks of the graphs left out are decompressed only up to their graph (read_head), or not
+    at all where the graph is all the chunk holds (unread_chunk), and the map and report
+    equal those of a build that reads every chunk whole (and copies every payload)."""
     from aion_cli.formats import mcap_partial
     from aion_cli.graph_feed import GraphFeed
     from benchmarks.build_logs import SITE, MovingPayload, places_graph, steady_times, write_log
@@ -280,15 +281,19 @@ def test_graphs_left_out_are_not_decompressed_and_the_map_is_the_same(
     log = tmp_path / "live.mcap"
     write_log(log, steady_times(60.0), 2, (SITE[0], SITE[1]), MovingPayload(xyz, edges), 1.0,
               chunk_size=16_384)
-    real = mcap_partial.read_head
-    partial = []
+    real, real_alone = mcap_partial.read_head, mcap_partial.unread_chunk
+    partial = []  # chunks read in part or not at all
 
     def counting(*args: Any) -> Any:
-        got = real(*args)
-        partial.append(got is not None)
+        return record(real(*args))
+
+    def record(got: Any) -> Any:
+        if got is not None:
+            partial.append(True)
         return got
 
     monkeypatch.setattr(mcap_partial, "read_head", counting)
+    monkeypatch.setattr(mcap_partial, "unread_chunk", lambda *a: record(real_alone(*a)))
     in_part = build_map(BuildOptions(logs=(log,), output=tmp_path / "part.aion"))
     assert in_part.graphs_skipped_period >= 40
     assert sum(partial) >= in_part.graphs_skipped_period - 2  # a left-out graph ends each
