@@ -9,8 +9,14 @@ the values are (map, time, zone, direction bins). A spark_dsg user reads them ba
 ``G.get_node(NodeSymbol("p", 12)).attributes.metadata.get()["aion"]``; aion reads the file
 as any scene graph (``aion info``, ``build --graph``).
 
-Places go to the PLACES layer (3) whatever layer the map's graph took them from (named in the
-graph metadata, ``nav_layer``); a place of the map without an entry carries no ``"aion"``
+The graph keeps what the map stores of its source graph (``formats/MAPFILE.md``): the places
+go back to the layer they came from (:func:`place_layer`: PLACES ``3``, Hydra's 2D places
+MESH_PLACES ``3[1]``, any other layer key as it was) under their own node ids, with their
+edges, rooms and buildings; the robot poses of the agent layer (partition ``a`` of layer 2,
+``a0``, ``a1``... in time order) and the mesh when the map holds them. What the map does not
+store is not in the file (:data:`NOT_STORED`, said in a note): objects, the source's other
+layers, frontiers, room and agent edges, edge weights, pose orientations and node attributes
+beyond positions and names. A place of the map without an entry carries no ``"aion"``
 record. Hash cells are not nodes of the graph and are left out.
 """
 
@@ -23,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.types import GraphSnapshot
+from aion_cli.engine.types import GraphSnapshot, Mesh
+from aion_cli.formats.dsg_layers import NavLayer
 from aion_cli.formats.outputs import OutputPathError, Staged, check_output
 
 #: suffixes spark_dsg saves (it chooses the encoding from the name)
@@ -42,10 +49,31 @@ class DsgExportSummary:
     rooms: int
     buildings: int
     edges: int
+    #: the places' layer key in spark_dsg's notation ("3", "3[1]")
+    place_layer: str = "3"
+    agents: int = 0
+    mesh_vertices: int = 0
 
 
 #: how the graph metadata's marker reads in the bytes spark_dsg saves (JSON and binary alike)
 _MARKER_FIELD = b'"written_by":"' + MARKER.encode() + b'"'
+#: what the source graph may hold that a map does not store, so an export cannot give back
+NOT_STORED = (
+    "objects, the source graph's other layers, frontiers, room and robot-pose edges, edge "
+    "weights, pose orientations and node attributes beyond positions and names"
+)
+
+
+def not_stored_note(layer_name: str) -> str:
+    """The note of a scene-graph export: what of the source graph a map does not store, so
+    the file cannot give it back; a graph aion derived (``layer_name`` "derived") had none."""
+    if layer_name == "derived":
+        return "the graph was derived from walking people: it holds places and their edges only"
+    return f"a map does not store the {NOT_STORED} of its scene graph: the file has none of them"
+
+
+#: the robot's partition of the agent layer (kimera_pgmo's prefix of robot 0)
+AGENT_PREFIX = "a"
 #: the start of a binary ``.sparkdsg`` file
 _BINARY_HEAD = b"\xdd\x09\x00\x00\x00SPARK_DSG"
 
@@ -101,7 +129,7 @@ def check_dsg_target(path: Path) -> None:
     )
 
 
-def _check_saved(path: Path, out: Path, dsg: Any) -> None:
+def _check_saved(path: Path, out: Path, dsg: Any, with_mesh: bool) -> None:
     """:class:`ExportWriteError` unless the file spark_dsg saved at ``path`` is whole:
     spark_dsg reports no write error (a full disk leaves a cut-off or empty file). A
     ``.json`` file must parse; a ``.sparkdsg`` file must end with the graph's binary form
@@ -116,7 +144,7 @@ def _check_saved(path: Path, out: Path, dsg: Any) -> None:
             json.loads(data)
             whole = True
         else:
-            body = dsg.to_binary(include_mesh=False)
+            body = dsg.to_binary(include_mesh=with_mesh)
             whole = len(data) > len(body) and data.endswith(body)
     except (OSError, ValueError) as exc:
         whole = False
@@ -138,6 +166,76 @@ def _names(layer: Any) -> list[str]:
     return [name_of(layer, k) or "" for k in range(len(layer))]
 
 
+def place_layer(layer_name: str) -> NavLayer:
+    """The source graph's layer of the map's places, from the name the map keeps
+    (``GraphSnapshot.layer_name``, :attr:`NavLayer.snapshot_name`): ``places`` -> PLACES ``3``,
+    ``mesh_places`` -> MESH_PLACES ``3[1]`` (spark_dsg 1.1's key: the map keeps the name, not
+    whether an older graph had it at layer 20), ``layer_20`` / ``layer_3[2]`` -> that key; any
+    other (``derived``: places aion derived, no source graph) -> PLACES ``3``."""
+    from aion_cli.formats.dsg_layers import (
+        DEFAULT_LAYER_NAMES,
+        LEGACY_MESH_PLACES_LAYER,
+        PLACES_LAYER,
+        GraphLayerError,
+        parse_nav_layer,
+    )
+
+    keys = {v: k for k, v in DEFAULT_LAYER_NAMES.items() if k != (LEGACY_MESH_PLACES_LAYER, 0)}
+    text = layer_name.removeprefix("layer_")
+    try:
+        request = parse_nav_layer(text if text != layer_name else text.upper())
+    except GraphLayerError:  # neither a key nor a name
+        request = None
+    if isinstance(request, tuple):
+        return NavLayer(*request, name=DEFAULT_LAYER_NAMES.get(request, ""))
+    if isinstance(request, str) and request in keys:
+        return NavLayer(*keys[request], name=request)
+    return NavLayer(PLACES_LAYER, 0, "PLACES")
+
+
+def _new_graph(spark_dsg: Any, places: NavLayer, agents: bool) -> Any:
+    """An empty spark_dsg graph with the default layers (OBJECTS / AGENTS 2, PLACES 3, ROOMS 4,
+    BUILDINGS 5), the places' key and name, and the robot's agent partition when ``agents``."""
+    key = spark_dsg.LayerKey
+    names = {"OBJECTS": key(2), "AGENTS": key(2), "PLACES": key(3), "ROOMS": key(4)}
+    names["BUILDINGS"] = key(5)
+    if places.name:
+        names[places.name] = key(places.layer, places.partition)
+    keys = {(2, 0), (3, 0), (4, 0), (5, 0), (places.layer, places.partition)}
+    if agents:
+        keys.add((2, ord(AGENT_PREFIX)))
+    return spark_dsg.DynamicSceneGraph([key(*k) for k in sorted(keys)], names)
+
+
+def _spark_mesh(spark_dsg: Any, mesh: Mesh) -> Any:
+    """The map's mesh as a spark_dsg ``Mesh``: 6 x v vertices (xyz, rgb in 0..1; black where the
+    map keeps no colours) and 3 x f faces."""
+    colored = len(mesh.colors) == len(mesh.vertices)
+    out = spark_dsg.Mesh(colored, False, False, False)
+    colors = mesh.colors if colored else np.zeros_like(mesh.vertices)
+    out.set_vertices(np.ascontiguousarray(np.hstack([mesh.vertices, colors]).T, np.float64))
+    out.set_faces(np.ascontiguousarray(np.asarray(mesh.faces, np.int32).T))
+    return out
+
+
+def _add_agents(spark_dsg: Any, dsg: Any, graph: GraphSnapshot) -> int:
+    """The robot poses as agent nodes ``a0``, ``a1``... (time order, as Hydra numbers them)
+    in partition ``a`` of layer 2, each with its position and stamp (whole microseconds, as
+    spark_dsg holds them); the map keeps no orientation nor the links between poses."""
+    from datetime import timedelta
+
+    if graph.agents is None:
+        return 0
+    layer = int(dsg.get_layer_key("AGENTS").layer)
+    t_us = (np.asarray(graph.agents.t_ns, np.int64) // 1000).tolist()
+    for k, (us, xyz) in enumerate(zip(t_us, graph.agents.xyz, strict=True)):
+        attrs = spark_dsg.AgentNodeAttributes()
+        attrs.position = np.asarray(xyz, dtype=np.float64)
+        attrs.timestamp = timedelta(microseconds=us)
+        dsg.add_node(layer, spark_dsg.NodeSymbol(AGENT_PREFIX, k), attrs, ord(AGENT_PREFIX))
+    return len(t_us)
+
+
 def write_dynamic_graph(
     graph: GraphSnapshot,
     records: Mapping[int, dict[str, Any]],
@@ -145,12 +243,14 @@ def write_dynamic_graph(
     out: Path,
 ) -> DsgExportSummary:
     """Write ``graph`` to ``out`` with ``records[node id]`` (places, rooms, buildings) as each
-    node's ``"aion"`` metadata and ``info`` as the graph's; the file appears complete or not
-    at all."""
+    node's ``"aion"`` metadata and ``info`` as the graph's; the places in the layer they came
+    from, the robot poses and the mesh when the map holds them. The file appears complete or
+    not at all."""
     import spark_dsg
 
     check_dsg_target(out)
-    dsg = spark_dsg.DynamicSceneGraph()
+    nav = place_layer(graph.layer_name)
+    dsg = _new_graph(spark_dsg, nav, graph.agents is not None)
 
     def add(layer: Any, attrs: Any, node_id: int, xyz: Any) -> None:
         attrs.position = np.asarray(xyz, dtype=np.float64)
@@ -160,10 +260,15 @@ def write_dynamic_graph(
         dsg.add_node(layer, spark_dsg.NodeSymbol(node_id), attrs)
 
     places = graph.places
+    place_key = spark_dsg.LayerKey(nav.layer, nav.partition)
+    two_d = nav.name == "MESH_PLACES"  # Hydra's 2D places carry Place2dNodeAttributes
     for node_id, xyz in zip(places.ids.tolist(), places.xyz, strict=True):
-        attrs = spark_dsg.PlaceNodeAttributes()
-        attrs.real_place = True
-        add(spark_dsg.DsgLayers.PLACES, attrs, node_id, xyz)
+        if two_d:
+            attrs = spark_dsg.Place2dNodeAttributes()
+        else:
+            attrs = spark_dsg.PlaceNodeAttributes()
+            attrs.real_place = True
+        add(place_key, attrs, node_id, xyz)
     for a, b in graph.edges.tolist():
         dsg.insert_edge(
             spark_dsg.NodeSymbol(int(places.ids[a])), spark_dsg.NodeSymbol(int(places.ids[b]))
@@ -180,11 +285,16 @@ def write_dynamic_graph(
         for child, parent in zip(layer.ids.tolist(), layer.parent.tolist(), strict=True):
             if parent and dsg.has_node(spark_dsg.NodeSymbol(parent)):
                 dsg.insert_edge(spark_dsg.NodeSymbol(child), spark_dsg.NodeSymbol(parent))
+    agents = _add_agents(spark_dsg, dsg, graph)
+    if graph.mesh is not None:
+        dsg.mesh = _spark_mesh(spark_dsg, graph.mesh)
     dsg.metadata.set({"aion": {"written_by": MARKER, **info}})
+    with_mesh = graph.mesh is not None
     with Staged(out) as staged:
-        dsg.save(str(staged.path), include_mesh=False)
-        _check_saved(staged.path, out, dsg)
+        dsg.save(str(staged.path), include_mesh=with_mesh)
+        _check_saved(staged.path, out, dsg, with_mesh)
     with_dynamics = sum(1 for node_id in places.ids.tolist() if node_id in records)
     return DsgExportSummary(
-        out, len(places), with_dynamics, len(graph.rooms), len(graph.buildings), len(graph.edges)
-    )
+        out, len(places), with_dynamics, len(graph.rooms), len(graph.buildings),
+        len(graph.edges), nav.key, agents, 0 if graph.mesh is None else len(graph.mesh.vertices),
+    )  # fmt: skip

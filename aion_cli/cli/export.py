@@ -159,6 +159,7 @@ def command(
         scene_file,
         write_export,
     )
+    from aion_cli.formats.dsg_export import not_stored_note
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:
@@ -232,6 +233,7 @@ def command(
     if written.stale is not None and (written.stale.removed or written.stale.kept):
         note(_stale_note(written.stale, out_dir))
     if written.graph is not None:
+        note(not_stored_note(loaded.graph.layer_name))
         left_out = cells_left_out(loaded)
         if left_out is not None:
             (warn if left_out[1] else note)(left_out[0])
@@ -251,10 +253,14 @@ def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:
 
     if written.graph is not None:
         done = written.graph
+        extra = f", {counted(done.agents, 'robot pose')}" if done.agents else ""
+        if done.mesh_vertices:
+            extra += f", a mesh of {done.mesh_vertices:,} vertices"
         return (
-            f"wrote {markup_safe(out)}: {counted(done.places, 'place')} "
-            f"({done.places_with_dynamics:,} with dynamics), {counted(done.rooms, 'room')}, "
-            f"{counted(done.buildings, 'building')}, {counted(done.edges, 'place edge')}"
+            f"wrote {markup_safe(out)}: {counted(done.places, 'place')} in layer "
+            f"{done.place_layer} ({done.places_with_dynamics:,} with dynamics), "
+            f"{counted(done.rooms, 'room')}, {counted(done.buildings, 'building')}, "
+            f"{counted(done.edges, 'place edge')}{extra}"
         )
     if fmt == "png":
         return f"wrote {markup_safe(out)}"
