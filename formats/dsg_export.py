@@ -59,8 +59,8 @@ class DsgExportSummary:
 _MARKER_FIELD = b'"written_by":"' + MARKER.encode() + b'"'
 #: what the source graph may hold that a map does not store, so an export cannot give back
 NOT_STORED = (
-    "objects, the source graph's other layers, frontiers, room and robot-pose edges, edge "
-    "weights, pose orientations and node attributes beyond positions and names"
+    "objects, other layers, frontiers, room and robot-pose edges, edge weights, pose "
+    "orientations or node attributes beyond positions and names"
 )
 
 
@@ -69,7 +69,7 @@ def not_stored_note(layer_name: str) -> str:
     the file cannot give it back; a graph aion derived (``layer_name`` "derived") had none."""
     if layer_name == "derived":
         return "the graph was derived from walking people: it holds places and their edges only"
-    return f"a map does not store the {NOT_STORED} of its scene graph: the file has none of them"
+    return f"a map does not store a scene graph's {NOT_STORED}: they are not in the file"
 
 
 #: the robot's partition of the agent layer (kimera_pgmo's prefix of robot 0)
