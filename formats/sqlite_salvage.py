@@ -156,9 +156,18 @@ def _whole_pages(path: Path, cut: CutShort, target: Path) -> Path:
 
 def _damaged_text(name: Path, read: int, gaps: Gaps, why: str) -> str:
     """The warning of a file salvaged past damage: the messages read, and the rows lost."""
+    tail = [a for a, b in gaps if b == _ON]  # the damage runs to the end: no count
+    gaps = [(a, b) for a, b in gaps if b != _ON]
     lost = sum(b - a + 1 for a, b in gaps)
     runs = ", ".join(f"{a:,}" if a == b else f"{a:,} to {b:,}" for a, b in gaps[:5])
     more = f" and {len(gaps) - 5:,} more runs" if len(gaps) > 5 else ""
+    if tail:
+        counted = f"{lost:,} cannot be (ids {runs}{more}), " if gaps else ""
+        return (
+            f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}): "
+            f"{read:,} messages are read, {counted}none from id {tail[0]:,} on can be read: "
+            "they are lost"
+        )
     return (
         f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}): "
         f"{read:,} messages are read, {lost:,} cannot be (ids {runs}{more}) and are lost"
@@ -169,7 +178,9 @@ def _damaged_text(name: Path, read: int, gaps: Gaps, why: str) -> str:
 
 
 Gaps = list[tuple[int, int]]
-"""Runs ``(first, last)`` of rowids skipped as unreadable."""
+"""Runs ``(first, last)`` of rowids skipped as unreadable; ``last`` :data:`_ON`: every rowid
+from ``first`` on (no row is read after the damage)."""
+_ON = 2**63 - 1
 
 
 def _copy_rows(path: Path, copy: Path, skip: bool = False) -> tuple[int, str, Gaps]:
@@ -230,7 +241,7 @@ def _copy_table(
     copied, start, size = 0, -(2**63), _BATCH
     first_why, gaps = "", []  # type: tuple[str, Gaps]
     while True:
-        why = ""
+        why, damaged = "", None  # damaged: the rowid of a row read whole that cannot be kept
         try:
             batch: list[Any] | None = cut.execute(select, (start, size)).fetchall()
         except sqlite3.DatabaseError as exc:
@@ -241,6 +252,7 @@ def _copy_table(
                 db.executemany(insert, [row[1:] for row in batch])
             except sqlite3.IntegrityError as exc:  # a damaged row read as one (a NULL id)
                 db.execute("ROLLBACK TO batch")
+                damaged = batch[0][0] if len(batch) == 1 else None
                 batch, why = None, f"a damaged row ({exc})"
             db.execute("RELEASE batch")
         if batch is None:
@@ -248,16 +260,20 @@ def _copy_table(
                 size = 1
                 continue
             first_why = first_why or why
-            after = _resume(cut, quoted, start) if skip else None
-            if after is None:
+            if not skip:
                 return copied, first_why, gaps
-            gaps.append((max(start, 1), after - 1))  # (rosbag2 numbers rows from 1)
+            # past the row SQLite reads but that cannot be kept, else to where it reads again
+            after = max(damaged, start) + 1 if damaged is not None else _resume(cut, quoted, start)
+            if after is None:
+                return copied, first_why, [*gaps, (max(start, 1), _ON)]
+            if after - 1 >= max(start, 1):  # (rosbag2 numbers rows from 1)
+                gaps.append((max(start, 1), after - 1))
             start, size = after, _BATCH
             continue
         if not batch:
             return copied, first_why, gaps
         copied += len(batch)
-        start = batch[-1][0] + 1
+        start = max(batch[-1][0], start) + 1  # on, even where a damaged tree's order is not
 
 
 def _resume(cut: sqlite3.Connection, quoted: str, start: int) -> int | None:
@@ -267,9 +283,10 @@ def _resume(cut: sqlite3.Connection, quoted: str, start: int) -> int | None:
     readable start, then bisection the first (a damaged page holds one run of rowids)."""
 
     def reads_from(rowid: int) -> bool | None:  # True: a row is read, None: none is left
-        try:
+        try:  # the whole row, as the copy reads it: its rowid alone may read where it fails
             row = cut.execute(
-                f"SELECT rowid FROM {quoted} WHERE rowid >= ? ORDER BY rowid LIMIT 1", (rowid,)
+                f"SELECT rowid, * FROM {quoted} WHERE rowid >= ? ORDER BY rowid LIMIT 1",
+                (rowid,),
             ).fetchall()
         except sqlite3.DatabaseError:
             return False
