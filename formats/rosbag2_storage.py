@@ -289,6 +289,40 @@ def metadata_figures(folder: Path) -> MetadataFigures | None:
     )
 
 
+def metadata_type_error(folder: Path) -> str | None:
+    """What in ``folder/metadata.yaml`` is not of its type: a message count (of the bag or of
+    a topic), the start time or the duration that is no integer, a topic name or type that is
+    no string. rosbags takes any YAML value there, and a sum over the counts failed later
+    (``int += str``). None when all are, or the yaml cannot be read (rosbags says why)."""
+    from ruamel.yaml import YAML
+
+    try:
+        data = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+    except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
+        return None
+    info = _nested(data, "rosbag2_bagfile_information")
+    if not isinstance(info, dict):
+        return None
+    values: list[tuple[str, object, type]] = [
+        ("message_count", info.get("message_count"), int),
+        ("starting_time", _nested(info, "starting_time", "nanoseconds_since_epoch"), int),
+        ("duration", _nested(info, "duration", "nanoseconds"), int),
+    ]
+    entries = info.get("topics_with_message_count")
+    for entry in entries if isinstance(entries, list) else []:
+        name = _nested(entry, "topic_metadata", "name")
+        values += [
+            ("a topic's name", name, str),
+            (f"the topic type of {name}", _nested(entry, "topic_metadata", "type"), str),
+            (f"the message_count of {name}", _nested(entry, "message_count"), int),
+        ]
+    for what, value, kind in values:
+        if value is not None and (not isinstance(value, kind) or isinstance(value, bool)):
+            wanted = "an integer" if kind is int else "text"
+            return f"metadata.yaml: {what} is {value!r}, not {wanted}"
+    return None
+
+
 def unlisted_storage_files(folder: Path) -> list[str]:
     """The names of the storage files in ``folder`` that its metadata.yaml does not list (a
     split written after the yaml, another bag's file copied in): a reader of the yaml leaves

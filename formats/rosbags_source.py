@@ -478,9 +478,13 @@ def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
     else:
         from rosbags.rosbag2 import Reader as Reader2
 
+        from aion_cli.formats.rosbag2_storage import metadata_type_error
+
         reader = Reader2(path)
         what = "rosbag2 folder"
         hint = "check metadata.yaml and the storage files (.db3 / .mcap) next to it"
+        if (wrong := metadata_type_error(path)) is not None:  # rosbags takes any value
+            raise LogFormatError(f"{path}: not a readable {what} ({wrong})", hint=hint)
     try:
         reader.open()
     except Exception as exc:  # rosbags ReaderError and the errors of its storage plugins
