@@ -97,6 +97,33 @@ class _McapIndexed(_McapLinearRead):
                 hint="aion reads the log again in full",
             )
 
+    def _as_indexed(
+        self, offset: int, index: Any, selected: list[tuple[int, int, bytes]]
+    ) -> list[tuple[int, int, bytes]]:
+        """``selected``, the messages read of the chunk at ``offset`` sorted by log time, when
+        they lie within the times of its chunk ``index``. In a chunk whose times the build took
+        from its index, a message outside them (a log time damaged inside a chunk whose CRC
+        still holds, or was rewritten: 2^64 - 1 ns, which no int64 holds) raises
+        :class:`~aion_cli.errors.StaleIndexError`: the build reads every message again, and
+        its time checks see the times the stream yields."""
+        if (
+            selected
+            and index is not None
+            and offset in self._vouched
+            and not (
+                index.message_start_time <= selected[0][0]
+                and selected[-1][0] <= index.message_end_time
+            )
+        ):
+            from aion_cli.errors import StaleIndexError
+
+            raise StaleIndexError(
+                f"{self.path.name}: the chunk at byte {offset} holds messages at log times "
+                "outside those its index gives, which were taken from the index",
+                hint="aion reads the log again in full",
+            )
+        return selected
+
     # -- recorded windows ------------------------------------------------------------------
 
     def recorded_windows(self, window_ns: int) -> Windows:

@@ -134,7 +134,11 @@ class _McapLinearRead(_Source):
                 "copy made while recording); what it holds is read, anything recorded after "
                 "it is not in the file"
             )
-        return channels, schemas, counts, (start if n else 0), end
+        # the file's span in int64, as every time in aion: a log time no int64 holds (a
+        # damaged one, up to 2^64 - 1) is the latest one that does; the build drops the
+        # message itself as out of range
+        last = 2**63 - 1
+        return channels, schemas, counts, min(start if n else 0, last), min(end, last)
 
     def _linear_records(self, wanted: set[int] | None) -> Iterator[tuple[int, int, bytes]]:
         """Every message on ``wanted`` channels in file order, chunks broken up with their

@@ -403,7 +403,7 @@ class _McapSource(_McapIndexed):
                     )
                     if part is not None:
                         self._oversized(part[1])
-                        return part[0]
+                        return self._as_indexed(offset, index, part[0])
                 buf = mr.read_chunk(f, head, self._limits, mcap_linear._decompress)
             cap = self._limits.max_message_bytes
             selected, big, _ = mr.chunk_messages(buf, wanted, cap, views)
@@ -413,7 +413,7 @@ class _McapSource(_McapIndexed):
             self._stale(offset)
             return []
         self._oversized(big)
-        return selected
+        return self._as_indexed(offset, index, selected)
 
     def _records_merged(self, wanted: set[int]) -> Iterator[Record]:
         """Overlapping chunks, merged in log-time order: a chunk is read when the stream
@@ -427,7 +427,7 @@ class _McapSource(_McapIndexed):
         while k < len(chunks) or heap:
             if k < len(chunks) and (not heap or chunks[k].message_start_time <= heap[0][0]):
                 for log_time, channel_id, data in self._read_indexed(
-                    chunks[k].chunk_start_offset, wanted
+                    chunks[k].chunk_start_offset, wanted, chunks[k]
                 ):
                     heapq.heappush(heap, (log_time, seq, channel_id, data))
                     seq += 1

@@ -20,7 +20,7 @@ import pytest
 
 from aion_cli.engine.compare import differences
 from aion_cli.engine.mapper import MAX_TIME_NS
-from aion_cli.formats.logs import LogSet
+from aion_cli.formats.logs import LogSet, open_logs
 from aion_cli.formats.writers import LogWriter
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, _Build, build_map
@@ -358,3 +358,90 @@ def test_a_build_that_starts_over_keeps_the_note_on_a_log_overlapping_the_map(
     ))
     assert fed[0] > 3
     assert sum("before first.aion's data ends" in n for n in report.notes) == 1, report.notes
+
+
+def _set_log_time_in_chunk(path: Path, topic: str, value: int) -> int:
+    """Set the log time of the first message on ``topic`` inside an uncompressed chunk of the
+    MCAP file ``path`` to ``value`` (uint64), the chunk's CRC made right; its index and the
+    summary are left as they were. Returns the chunk's offset."""
+    import zlib
+
+    from mcap.reader import make_reader
+
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    (cid,) = [c.id for c in summary.channels.values() if c.topic == topic]
+    data = bytearray(path.read_bytes())
+    for chunk in _chunks(path):
+        body = chunk.chunk_start_offset + 9
+        comp_len = struct.unpack_from("<I", data, body + 28)[0]
+        assert data[body + 32 : body + 32 + comp_len] == b""  # uncompressed
+        records = body + 32 + comp_len + 8
+        end = records + struct.unpack_from("<Q", data, records - 8)[0]
+        at = records
+        while at < end:
+            op, length = data[at], struct.unpack_from("<Q", data, at + 1)[0]
+            if op == 0x05 and struct.unpack_from("<H", data, at + 9)[0] == cid:
+                struct.pack_into("<Q", data, at + 15, value)
+                if struct.unpack_from("<I", data, body + 24)[0]:  # a CRC to keep right
+                    struct.pack_into("<I", data, body + 24, zlib.crc32(data[records:end]))
+                path.write_bytes(bytes(data))
+                return chunk.chunk_start_offset
+            at += 9 + length
+    raise AssertionError(f"no message on {topic}")
+
+
+def test_a_message_time_beyond_int64_inside_a_chunk_makes_the_build_start_over(
+    tmp_path: Path, both: Callable[..., Builds]
+) -> None:
+    """A person's log time inside a chunk set to 2^64 - 1 ns (the long fuzz run of stop 66,
+    target log_fields, on a rosbag2 bag with mcap storage: uncompressed chunks): its index
+    still gives the old time, which the first pass took, and the stream yielded a time no
+    int64 holds (``internal error: OverflowError``, exit 1). Now the chunk's times outside its
+    index make the build start over reading every message, which drops that one as out of
+    range, as a build that never used the index does."""
+    log = office(tmp_path, "rosbag2-mcap")  # no stray time: nothing for the stream to drop
+    (storage,) = log.glob("*.mcap")
+    with open_logs([log]) as logs:
+        (topic,) = [t.topic for t in logs.topics if "TrackedPersons" in t.msgtype]
+    _set_log_time_in_chunk(storage, topic, 2**64 - 1)
+    builds = both([log])
+    assert builds.indexed == [True]
+    assert builds.tries == 2
+    builds.assert_same()
+    assert builds.fast[0]["log_times_dropped"][topic] == {"out_of_range": 1, "stray": 0}
+
+
+def test_a_time_beyond_int64_in_an_mcap_read_without_its_summary_is_dropped(
+    tmp_path: Path, both: Callable[..., Builds]
+) -> None:
+    """The same time in a zstd chunk, recompressed: the summary's offsets no longer hold, the
+    file is scanned, and its span ended at 2^64 - 1 ns, which the stray rule's recording spans
+    could not hold in int64 (``internal error: OverflowError``). The span ends at 2^63 - 1 ns
+    now; the message is dropped as out of range, the stray kept out: the full read's map."""
+    import random
+
+    from tests.robustness.fuzz_fields import Field, mutate_mcap_chunk
+
+    log = _timed_log(tmp_path / "timed")
+    victim = next(c for c in _chunks(log)[2:] if len(c.message_index_offsets) == 1)
+
+    class Victim(random.Random):  # that chunk, its first message's log time, 2^64 - 1
+        def choice(self, seq: Any) -> Any:
+            if isinstance(seq[0], tuple):
+                return next(c for c in seq if c[0] == victim.chunk_start_offset)
+            if isinstance(seq[0], Field):
+                return next(f for f in seq if f.kind == "time")
+            return 2**64 - 1
+
+    mutant = mutate_mcap_chunk(log.read_bytes(), Victim(1))
+    assert mutant is not None
+    assert len(mutant) != log.stat().st_size
+    log.write_bytes(mutant)
+    builds = both([log], graph_period_ns=0)
+    # the map of the full read (the warnings name another message "first": the stream's order)
+    assert differences(builds.fast[1], builds.full[1]) == []
+    # the out-of-range person _timed_log writes, and this one
+    for report in (builds.fast[0], builds.full[0]):
+        assert report["log_times_dropped"]["/tracks"] == {"out_of_range": 2, "stray": 1}
