@@ -72,14 +72,17 @@ def from_channels(
     t: Times, channels: npt.NDArray[Any], topic_of: Mapping[int, str], chunks: frozenset[int]
 ) -> StreamTimes:
     """:class:`StreamTimes` of messages given by channel or connection id (``channels``,
-    non-negative ints, each a key of ``topic_of``)."""
+    non-negative ints, each a key of ``topic_of``). The ids are looked up in their sorted
+    array, not a table as long as the largest: a ROS 1 bag's connection ids are uint32, and a
+    damaged one (2^30) asked for a 4 GiB table."""
     topics = tuple(sorted(set(topic_of.values())))
     if not len(channels):
         return StreamTimes(topics, t, np.zeros(0, np.int32), chunks)
-    ids = np.fromiter(topic_of.keys(), np.int64, len(topic_of))
-    lookup = np.full(int(max(int(ids.max()), int(channels.max()))) + 1, -1, np.int32)
-    lookup[ids] = [topics.index(topic_of[int(i)]) for i in ids]
-    return StreamTimes(topics, t, lookup[channels], chunks)
+    ids = np.sort(np.fromiter(topic_of.keys(), np.int64, len(topic_of)))
+    codes = np.array([topics.index(topic_of[int(i)]) for i in ids], np.int32)
+    at = np.minimum(np.searchsorted(ids, channels), ids.size - 1)
+    code = np.where(ids[at] == channels, codes[at], np.int32(-1)).astype(np.int32)
+    return StreamTimes(topics, t, code, chunks)
 
 
 def merged(parts: Sequence[StreamTimes]) -> StreamTimes | None:

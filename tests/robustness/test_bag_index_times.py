@@ -105,3 +105,45 @@ def test_a_chunk_info_that_starts_late_leaves_the_index_as_it_is(tmp_path: Path)
     for key in ("start_ns", "end_ns", "messages"):
         assert got[key] == want[key], key
     assert not [w for w in got["warnings"] if "damaged index entry" in w]
+
+
+def test_a_connection_id_of_2_30_in_the_index_is_read_without_a_table_that_long(
+    tmp_path: Path,
+) -> None:
+    """The connection record of the bag's index for the scene-graph topic names connection
+    2^30 (one damaged byte, found by the long fuzz run of stop 66, target log_fields): the
+    index times were looked up in a table as long as the largest id, 4 GiB (``aion info``:
+    ``internal error: MemoryError``). Now the bag reads as rosbags reads it: that
+    connection's one message, which its index no longer finds, is lost with a warning that
+    says so; every other message is read, byte for byte the written ones."""
+    from aion_cli.formats.logs import open_logs
+    from tests.robustness.conftest import (
+        DSG_TOPIC,
+        T0,
+        S,
+        graph_payload,
+        robot_tf,
+        run,
+        scene_graph,
+        walk,
+        write_log,
+    )
+
+    msgs = [*walk(20), *[robot_tf(T0 + 5 * k * S) for k in range(4)],
+            scene_graph(T0 + 1, graph_payload())]
+    bag = write_log(tmp_path / "b.bag", sorted(msgs, key=lambda m: m[3]), "bag")
+    with open_logs([bag]) as logs:
+        whole = sorted((m.topic, m.log_time_ns, m.data) for m in logs.messages())
+    data = bytearray(bag.read_bytes())
+    (conn,) = [r for r in _records(data) if r[0] == 0x07 and r[3][b"topic"] == DSG_TOPIC.encode()]
+    at = bytes(data[conn[1] : conn[2]]).index(b"conn=") + conn[1] + len(b"conn=")
+    struct.pack_into("<I", data, at, 2**30)
+    bag.write_bytes(bytes(data))
+    with open_logs([bag]) as logs:
+        got = sorted((m.topic, m.log_time_ns, m.data) for m in logs.messages())
+        warnings = logs.warnings
+    assert got == [m for m in whole if m[0] != DSG_TOPIC]
+    assert any("1 message cannot be found" in w for w in warnings)
+    for command in (["info", bag], ["build", bag, "-o", tmp_path / "m.aion", "-q"]):
+        result = run(*command)
+        assert result.exit_code == 0, result.stderr
