@@ -19,6 +19,7 @@ from aion_cli.formats.mcap_linear import _McapLinearRead, _why
 if TYPE_CHECKING:
     import numpy.typing as npt
 
+    from aion_cli.formats.mcap_records import Record
     from aion_cli.formats.raw import Encoding
     from aion_cli.formats.recorded import Windows
     from aion_cli.formats.stream_times import StreamTimes
@@ -97,9 +98,7 @@ class _McapIndexed(_McapLinearRead):
                 hint="aion reads the log again in full",
             )
 
-    def _as_indexed(
-        self, offset: int, index: Any, selected: list[tuple[int, int, bytes]]
-    ) -> list[tuple[int, int, bytes]]:
+    def _as_indexed(self, offset: int, index: Any, selected: list[Record]) -> list[Record]:
         """``selected``, the messages read of the chunk at ``offset`` sorted by log time, when
         they lie within the times of its chunk ``index``. In a chunk whose times the build took
         from its index, a message outside them (a log time damaged inside a chunk whose CRC
