@@ -18,10 +18,10 @@ give the tree's answers to the bit, measured and compared as the tree does in tw
 
 Candidates: every pair when there are few (a few points at a time against every centre),
 else the pairs of a point and a centre in the same or adjacent squares of a grid whose side is
-a little more than ``b`` (:class:`_Grid`: every pair in range is among them), a block of points
-at a time; each candidate's ``d`` then decides, so the answer does not depend on the
-candidates. A build's window of the simulated office takes about as long as the tree's query
-did (0.5-0.6 ms), without the tree's import.
+a little more than ``b`` (:class:`~aion_cli.engine.square_grid.SquareGrid`: every pair in
+range is among them), a block of points at a time; each candidate's ``d`` then decides, so
+the answer does not depend on the candidates. A build's window of the simulated office takes
+about as long as the tree's query did (0.5-0.6 ms), without the tree's import.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from aion_cli.engine.nearest import all_pairs
+from aion_cli.engine.square_grid import SquareGrid
 from aion_cli.engine.types import F64, I64, BoolA
 
 _ALL_PAIRS = 1 << 16
@@ -42,11 +43,6 @@ _POINTS_PER_BLOCK = 1 << 12
 """Points paired with the grid's centres at a time (bounds the candidate pairs held at once)."""
 _PAIRS_PER_BLOCK = 1 << 20
 """Pairs compared at a time when the grid cannot be used (every pair of a block of points)."""
-_WIDER = 1.0 + 2.0**-20
-"""The grid's side over ``b``: the margin covers the rounding of the squares' indices."""
-_MAX_INDEX = 1 << 26
-"""The grid is used while the centres span fewer squares than this per axis, so an index's
-rounding (about 2^-52 of it) stays far below the side's margin; else every pair is compared."""
 
 
 def any_within(points: F64, centres: F64, sensor_range: float) -> BoolA:
@@ -99,73 +95,9 @@ def _candidates(points: F64, centres: F64, reach: float) -> Iterator[tuple[I64, 
             p = np.repeat(np.arange(a, a + len(block), dtype=np.int64), m)
             yield p, (dx * dx + dy * dy).reshape(-1)
         return
-    grid = _Grid.of(centres, reach)
+    grid = SquareGrid.of(centres, reach)
     step = _POINTS_PER_BLOCK if grid is not None else max(1, _PAIRS_PER_BLOCK // m)
     for a in range(0, n, step):
         block = points[a : a + step]
         p, j = all_pairs(len(block), m) if grid is None else grid.pairs(block)
         yield a + p, _squared(block, centres, p, j)
-
-
-class _Grid:
-    """The centres sorted by the square of side ``side`` they lie in, so each point's
-    candidates are the centres of its own and the eight adjacent squares: three runs of the
-    sorted keys (one per row of squares).
-
-    Why every pair in range is a candidate: ``d <= fl(b·b)`` bounds ``fl(dx·dx)`` by it, so
-    the true ``|x₁ - x₂| <= b·(1 + 3·2^-53)``; a square's index is ``floor(fl(fl(x - x0) /
-    side))``, within ``2·2^-53·2^27`` of ``(x - x0) / side`` for indices below
-    :data:`_MAX_INDEX` (points farther out are clipped to just beyond the grid, where no
-    centre is); two indices then differ by less than ``(1 + 3·2^-53) / (1 + 2^-20) + 2^-24 <
-    1`` before flooring, so their floors by at most one."""
-
-    def __init__(self, origin: F64, side: float, top: I64, keys: I64, index: I64) -> None:
-        self.origin, self.side, self.top = origin, side, top
-        self.width = int(top[0]) + 5  # a row's keys never reach the next row's (ix in -3..top+3)
-        self.keys, self.index = keys, index
-
-    @classmethod
-    def of(cls, centres: F64, reach: float) -> _Grid | None:
-        """The grid of ``centres`` for pairs within ``reach``; None when the centres span too
-        many squares of that side (a tiny range, far-flung poses): every pair is compared."""
-        side = reach * _WIDER
-        finite = np.flatnonzero(np.isfinite(centres[:, :2]).all(axis=1))
-        xy = centres[finite, :2]
-        if xy.size == 0:  # no centre can be in range of anything
-            return cls(np.zeros(2), 1.0, np.zeros(2, np.int64), np.zeros(0, np.int64), finite)
-        origin = xy.min(axis=0)
-        cells = np.floor((xy - origin) / side)
-        if not (np.isfinite(side) and side > 0) or not float(cells.max()) < _MAX_INDEX:
-            return None
-        ij = cells.astype(np.int64)
-        top = ij.max(axis=0)
-        grid = cls(origin, side, top, np.zeros(0, np.int64), finite)
-        keys = ij[:, 1] * grid.width + ij[:, 0]
-        order = np.argsort(keys, kind="stable")
-        grid.keys, grid.index = keys[order], finite[order]
-        return grid
-
-    def pairs(self, points: F64) -> tuple[I64, I64]:
-        """Candidate pairs (index into ``points``, index into the centres) of ``points``."""
-        n = len(points)
-        cells = np.floor((points[:, :2] - self.origin) / self.side)
-        ok = np.isfinite(cells[:, 0]) & np.isfinite(cells[:, 1])
-        # clipped to two squares beyond the grid: no centre lies next to those
-        low, high = np.full(2, -2.0), self.top.astype(np.float64) + 2.0
-        ij = np.where(ok[:, None], np.clip(cells, low, high), -2.0).astype(np.int64)
-        width = self.width
-        ps, js = [], []
-        for dy in (-1, 0, 1):
-            row = (ij[:, 1] + dy) * width + ij[:, 0]
-            lo = np.searchsorted(self.keys, row - 1, side="left")
-            hi = np.searchsorted(self.keys, row + 1, side="right")
-            count = np.where(ok, hi - lo, 0)
-            total = int(count.sum())
-            if total == 0:
-                continue
-            starts = np.repeat(lo - (np.cumsum(count) - count), count)
-            ps.append(np.repeat(np.arange(n, dtype=np.int64), count))
-            js.append(self.index[starts + np.arange(total, dtype=np.int64)])
-        if not ps:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        return np.concatenate(ps), np.concatenate(js)

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from aion_cli.engine import sensor_reach
+from aion_cli.engine import square_grid
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.sensor_reach import any_within, count_within
 from aion_cli.engine.types import Trajectory
@@ -123,12 +123,12 @@ def test_an_entry_at_the_range_across_a_squares_edge_is_found() -> None:
     edge and an entry exactly the range beyond it lie in adjacent squares, so the entry is
     still compared with it (with squares a hair narrower, it would be two squares on)."""
     r = 8.0
-    side = math.nextafter(r, math.inf) * sensor_reach._WIDER
+    side = math.nextafter(r, math.inf) * square_grid.WIDER
     edge = math.floor(side * 2.0**40) / 2.0**40 - 2.0**-40  # c + r is exact below 2^13
     far = np.column_stack([1000.0 + np.arange(300.0), np.full(300, 1000.0)])
     centres = np.vstack([[0.0, 0.0], [edge, 0.0], far])  # the grid's origin at (0, 0)
     points = np.vstack([[edge + r, 0.0], far[:299] + 4000.0])  # 300 x 302 pairs: the grid
-    assert sensor_reach._Grid.of(centres, math.nextafter(r, math.inf)) is not None
+    assert square_grid.SquareGrid.of(centres, math.nextafter(r, math.inf)) is not None
     assert any_within(points, centres, r)[0]
     assert count_within(points, centres, r)[0] == 1
     _assert_as_tree(points, centres, r)
@@ -141,7 +141,7 @@ def test_poses_spread_over_more_squares_than_the_grid_takes_compare_every_pair()
     points = np.vstack([centres[:100] + np.array([r, 0.0]),
                         centres[100:200] + np.array([0.0, 2 * r]),
                         rng.uniform(-1e3, 1e3, (300, 2))])
-    assert sensor_reach._Grid.of(centres, r) is None
+    assert square_grid.SquareGrid.of(centres, r) is None
     _assert_as_tree(points, centres, r)
 
 
