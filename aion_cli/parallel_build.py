@@ -198,9 +198,10 @@ class ParallelBuild:
         else:
             # imported once here, so the forked workers start with them (scipy.sparse: every
             # shard absorbs its days with it; scipy.spatial, where scene graphs need KD-trees:
-            # every shard binds with them, and the joins here again; one import before the
-            # fork instead of one per worker and one more here, and none where nothing needs
-            # it: a robot's sensor range is measured without one, engine.sensor_reach)
+            # a shard looking for cells near places not yet stable, and the joins here; one
+            # import before the fork instead of one per worker and one more here, and none
+            # where nothing needs it: a robot's sensor range and a bind check's new cells are
+            # measured without one, engine.sensor_reach and engine.nearest.BindIndex)
             import scipy.sparse
 
             if kd_trees:

@@ -11,9 +11,11 @@ cells against a few hundred nodes cost to compare), a ball query of a KD-tree ot
 :class:`BindIndex` gives the same answers for the repeated bind checks of a build (two per
 window, and one at every scene graph) without redoing them: it remembers which cells had no
 node in reach, so only new cells are queried (issue 15: a fresh tree queried by every unbound
-cell at every check was 23 % of a build), and it keeps the KD-tree of a *reference* set of
-the nodes while a live graph moves them by millimetres, asking it with the reach widened by
-how far they moved (a tree per graph of 5,000 places cost more than the queries).
+cell at every check was 23 % of a build), and it keeps a grid of squares
+(:class:`~aion_cli.engine.square_grid.SquareGrid`) of a *reference* set of the nodes while a live
+graph moves them by millimetres, whose squares around a cell hold every node in reach however
+they moved (a tree per graph of 5,000 places cost more than the queries; a KD-tree kept
+instead, and the ``scipy.spatial`` import it needed, more than the grid).
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.square_grid import SquareGrid
 from aion_cli.engine.types import F64, I64, BoolA
 
 if TYPE_CHECKING:
@@ -32,7 +35,7 @@ if TYPE_CHECKING:
 _ALL_PAIRS = 1 << 16
 """Up to this many point-node pairs, every pair is compared (no tree)."""
 _POINTS_PER_BLOCK = 1 << 14
-"""Points asked of a KD-tree at a time (bounds the candidate pairs held at once)."""
+"""Points asked of a KD-tree or a grid at a time (bounds the candidate pairs held at once)."""
 
 
 def distances_from(xyz: npt.ArrayLike, point: npt.ArrayLike) -> F64:
@@ -185,7 +188,7 @@ class BindIndex:
     nearly the same stable nodes and the same cells, nearly all of which have no node in
     reach (they never bind). This memo keeps, for one ``radius`` / ``vertical_tolerance``:
 
-    * a *reference* set of the nodes (:attr:`_ref`, horizontal positions) and its KD-tree,
+    * a *reference* set of the nodes (:attr:`_ref`, horizontal positions) and its grid,
       built when a query needs it;
     * per entry row, the key and position of the cell found there without a node in reach,
       the node set it was found with (a version, bumped whenever the nodes change) and its
@@ -197,8 +200,9 @@ class BindIndex:
     live graph moved the nodes — the same number of them, each at most ``D`` horizontally from
     its reference position, in order — every node is at most ``D`` nearer to a cell than its
     reference was, so a cell whose slack exceeds ``D`` is still unbound, and the nodes in reach
-    of a cell are among the reference nodes within ``radius + D`` of it (the reference tree
-    answers that; :func:`_closest` measures them where they are now). Only the other cells
+    of a cell are among the reference nodes within ``radius + D`` of it (the reference
+    :class:`~aion_cli.engine.square_grid.SquareGrid` lists them; :func:`_closest` measures them
+    where they are now). Only the other cells
     (new, moved, in reach, or with too little slack) are queried. When the nodes change
     otherwise, or ``D`` reaches half of :data:`_SLACK_REACH`, the reference becomes the
     current nodes and every cell is queried again. Answers are exactly those of
@@ -211,13 +215,14 @@ class BindIndex:
         """Cells queried so far (how much work the memo did not save; for tests)."""
 
     def _reset(self) -> None:
-        """Nothing memoised: no nodes, no tree, no cell known unbound."""
+        """Nothing memoised: no nodes, no grid, no cell known unbound."""
         self._nodes = np.zeros((0, 3))
         self._ref = np.zeros((0, 2))  # reference node positions (horizontal) of the slacks
         self._version = 0  # bumped whenever the nodes change
         self._moved: float | None = None  # _displacement of _nodes (None: not known)
         self._params: tuple[float, float] | None = None
-        self._tree: cKDTree | None = None  # of the reference positions
+        self._grid: SquareGrid | None = None  # of the reference positions, once _gridded
+        self._gridded = False  # (None then: too many squares, every pair is compared)
         self._forget(0)
         self._none_at: int | None = None  # cells version of the last check that bound none
 
@@ -249,8 +254,7 @@ class BindIndex:
 
     def __getstate__(self) -> dict[str, int]:
         """A memo travels empty (a parallel build's shard states are pickled): rebuilding it
-        costs less than sending the tree and its rows, and unpickling a tree would import
-        scipy.spatial in a process that may not need it."""
+        costs less than sending the grid and its rows."""
         return {"queried": self.queried}
 
     def __setstate__(self, state: dict[str, int]) -> None:
@@ -279,7 +283,7 @@ class BindIndex:
 
     def _displacement(self, node_xyz: F64, params: tuple[float, float]) -> float:
         """How far (horizontally, at most) the nodes are from the reference set; a new
-        reference (its tree and every cell forgotten) when they are not the same nodes moved
+        reference (its grid and every cell forgotten) when they are not the same nodes moved
         a little."""
         if params == self._params and len(node_xyz) == len(self._ref):
             step = node_xyz[:, :2] - self._ref
@@ -288,7 +292,7 @@ class BindIndex:
                 return moved
         self._params = params
         self._ref = np.array(node_xyz[:, :2], dtype=np.float64, copy=True)
-        self._tree = None
+        self._grid, self._gridded = None, False
         self._forget(0)
         return 0.0
 
@@ -363,23 +367,30 @@ class BindIndex:
         self, points: F64, radius: float, vertical_tolerance: float, moved: float
     ) -> tuple[I64, F64]:
         """The answers for ``points`` and their slacks (for those left unbound): every pair
-        compared when there are few, else the reference tree asked within ``radius`` plus
-        ``moved`` (every node now in reach was that near at its reference position)."""
+        compared when there are few, else the pairs of the reference grid, whose squares
+        around a point hold every reference node within ``radius`` plus :data:`_SLACK_REACH`
+        of it: every node now in reach (at most ``moved`` farther at its reference position)
+        and the nearest reference node, which the slack is measured to."""
         nodes = self._nodes
         cap = radius + _SLACK_REACH
         if len(points) * len(nodes) <= _ALL_PAIRS:
             found, least = _closest_every_pair(points, nodes, radius, vertical_tolerance)
             # the nodes now: at most ``moved`` nearer to a cell than their references
             return found, np.minimum(least, cap) - radius - moved
-        if self._tree is None:
-            self._tree = horizontal_tree(self._ref)
-        reach = _widened(radius + moved)
-        found = _by_tree(self._tree, points, nodes, reach, radius, vertical_tolerance)
-        slack = np.full(len(points), -np.inf)
-        unbound = found < 0
-        if unbound.any():  # the reference nodes' own distance: the slack as defined
-            dist, _ = self._tree.query(points[unbound, :2], k=1, distance_upper_bound=cap)
-            slack[unbound] = np.minimum(dist, cap) - radius - _ROUNDING
+        if not self._gridded:
+            self._grid, self._gridded = SquareGrid.of(self._ref, cap), True
+        grid, ref = self._grid, self._ref
+        found = np.empty(len(points), np.int64)
+        least = np.full(len(points), np.inf)  # the nearest reference node, if within cap
+        step = _POINTS_PER_BLOCK if grid is not None else max(1, _ALL_PAIRS // len(nodes))
+        for a in range(0, len(points), step):
+            block = points[a : a + step]
+            p, j = all_pairs(len(block), len(nodes)) if grid is None else grid.pairs(block)
+            found[a : a + len(block)] = _closest(block, nodes, p, j, radius, vertical_tolerance)[0]
+            d = np.hypot(block[p, 0] - ref[j, 0], block[p, 1] - ref[j, 1])
+            np.minimum.at(least[a : a + len(block)], p, d)
+        # the reference nodes' own distance: the slack as defined (for the cells left unbound)
+        slack = np.where(found < 0, np.minimum(least, cap) - radius - _ROUNDING, -np.inf)
         return found, slack
 
 
@@ -390,5 +401,5 @@ every cell is queried again."""
 _EPS = 1e-9
 """Margin (m) on the slack comparison, for the rounding of the distances."""
 _ROUNDING = 1e-9
-"""Margin (m) taken off a slack measured by a KD-tree, whose distances may differ in their
-last bits from :func:`_closest`'s."""
+"""Margin (m) taken off a slack measured to the reference nodes, whose distances may differ in
+their last bits from the :func:`_closest` distances of the nodes that moved from them."""

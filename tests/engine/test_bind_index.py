@@ -5,12 +5,13 @@ millimetres — while querying only the cells it must."""
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any
 from unittest import mock
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine import nearest, ownership
@@ -62,8 +63,8 @@ def test_bind_index_answers_equal_nearest_nodes(
     cells moved in place, node sets changed or repeated: every answer equals a fresh
     ``nearest_nodes`` over all cells and a brute-force search, and cells seen unbound before
     are not queried again. ``all_pairs``: up to how many pairs every pair is compared (0:
-    the KD-trees always, the reference tree of moved nodes too; 40: some checks each way).
-    The trees are asked 7 points at a time (blocks)."""
+    the KD-trees always, the reference grid of moved nodes too; 40: some checks each way).
+    The trees and the grid are asked 7 points at a time (blocks)."""
     with (
         mock.patch.object(nearest, "_ALL_PAIRS", all_pairs),
         mock.patch.object(nearest, "_POINTS_PER_BLOCK", 7),
@@ -210,7 +211,7 @@ def test_a_bind_check_with_nothing_new_asks_nothing(monkeypatch: pytest.MonkeyPa
 
 
 def test_bind_index_travels_empty_and_answers_alike() -> None:
-    """A pickled memo (a parallel build's shard state) arrives empty, without its KD-tree,
+    """A pickled memo (a parallel build's shard state) arrives empty, without its grid,
     and gives the same answers as before and as :func:`nearest_nodes`."""
     import pickle
 
@@ -222,7 +223,7 @@ def test_bind_index_travels_empty_and_answers_alike() -> None:
     index = BindIndex()
     before = index.nearest(rows, keys, cells, nodes, 1.5, 0.5)
     copy = pickle.loads(pickle.dumps(index))
-    assert copy._tree is None
+    assert copy._grid is None
     assert not copy._known.any()
     np.testing.assert_array_equal(copy.nearest(rows, keys, cells, nodes, 1.5, 0.5), before)
     np.testing.assert_array_equal(before, nearest_nodes(cells, nodes, 1.5, 0.5))
@@ -265,10 +266,10 @@ def test_equally_near_nodes_bind_by_index_whatever_the_tree(order: str) -> None:
     )
 
 
-def test_a_node_moved_into_reach_is_found_through_the_reference_tree() -> None:
-    """The reference tree of nodes a live graph moved by millimetres is asked within the
-    radius widened by the move: a node 2 mm out of reach at its reference position, moved
-    3 mm toward a cell, binds it (as a fresh search finds), through the tree."""
+def test_a_node_moved_into_reach_is_found_through_the_reference_grid() -> None:
+    """The reference grid of nodes a live graph moved by millimetres finds the nodes the move
+    brought into reach: a node 2 mm out of reach at its reference position, moved 3 mm
+    toward a cell, binds it (as a fresh search finds), through the grid."""
     nodes = np.array([[0.0, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 5.0, 0.0]])
     cells = np.array([[1.002, 0.0, 0.0], [3.0, 3.0, 0.0]])
     rows = np.arange(2, dtype=np.int64)
@@ -279,7 +280,7 @@ def test_a_node_moved_into_reach_is_found_through_the_reference_tree() -> None:
         moved = nodes.copy()
         moved[0, 0] += 0.003  # now 0.999 m from the first cell
         got = index.nearest(rows, keys, cells, moved, 1.0, 0.5)
-        assert index._tree is not None  # the reference tree, kept
+        assert index._grid is not None  # the reference grid, kept
         assert len(index._ref) == 3
         np.testing.assert_array_equal(index._ref[0], nodes[0, :2])
     np.testing.assert_array_equal(got, [0, -1])
@@ -300,6 +301,55 @@ def test_many_nodes_of_another_floor_nearer_do_not_hide_the_floors_own(all_pairs
         got = BindIndex().nearest(np.array([0]), np.array([5]), cell, nodes, 1.0, 0.5)
     np.testing.assert_array_equal(got, [12])
 
+
+_quarter = st.integers(-24, 24).map(lambda k: k * 0.25)  # a 0.25 m lattice: many exact ties
+_spot = st.tuples(_quarter, _quarter, st.sampled_from([0.0, 0.5, 3.0]))
+
+
+@given(
+    st.lists(_spot, min_size=1, max_size=40),
+    st.lists(_spot, min_size=1, max_size=60),
+    st.lists(st.tuples(st.floats(-0.3, 0.3), st.floats(-0.3, 0.3)), min_size=1, max_size=3),
+    st.sampled_from([0.5, 1.0, 1.75]),
+    st.sampled_from([0.25, 1.0]),
+    st.booleans(),
+)
+# a node two squares of the radius away from a cell (0.25 m beyond reach) moves 0.26 m toward
+# it: the cell's slack must count that node (the grid's squares cover radius + _SLACK_REACH)
+@example([(1.0, 0.0, 0.0)], [(0.25, 0.0, 0.0)], [(-0.26, 0.0)], 0.5, 1.0, False)
+@settings(max_examples=200, deadline=None)
+def test_the_grid_query_equals_a_brute_force_search(
+    nodes: list[tuple[float, float, float]],
+    cells: list[tuple[float, float, float]],
+    moves: list[tuple[float, float]],
+    radius: float,
+    vtol: float,
+    gridless: bool,
+) -> None:
+    """The memo's look-up through its grid of squares (or, when the nodes span too many
+    squares, every pair) answers each check as a brute-force search over every node does:
+    the nearest node in reach, the lowest index among equally near ones (nodes and cells on
+    a 0.25 m lattice tie often) — first at the reference positions, then after the nodes
+    moved by up to 0.3 m along each axis in a few steps (cells seen unbound are then answered by
+    their slack, the others through the grid of the first positions)."""
+    node_xyz = np.array(nodes, dtype=np.float64)
+    pts = np.array(cells, dtype=np.float64)
+    rows = np.arange(len(pts), dtype=np.int64)
+    keys = rows + 100
+    index = BindIndex()
+    with (
+        mock.patch.object(nearest, "_ALL_PAIRS", 0),  # never every pair by size: the grid
+        mock.patch.object(nearest, "_POINTS_PER_BLOCK", 5),
+        mock.patch.object(nearest.SquareGrid, "of", staticmethod(lambda *_: None))
+        if gridless
+        else contextlib.nullcontext(),
+    ):
+        for dx, dy in [(0.0, 0.0), *moves]:
+            sign = 1.0 - 2.0 * (np.arange(len(node_xyz)) % 2)  # even nodes one way, odd the other
+            node_xyz = node_xyz + np.array([dx, dy, 0.0]) * sign[:, None]
+            got = index.nearest(rows, keys, pts, node_xyz, radius, vtol)
+            np.testing.assert_array_equal(got, _brute_force_nearest(pts, node_xyz, radius, vtol))
+    assert (index._grid is None) == gridless
 
 # -- reach of boxes (a place's positions over a time) ---------------------------------------
 
