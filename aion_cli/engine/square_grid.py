@@ -21,10 +21,15 @@ MAX_INDEX = 1 << 26
 rounding (about 2^-52 of it) stays far below the side's margin; else every pair is compared."""
 
 
+_ROWS = np.array([-1, 0, 1], dtype=np.int64)
+"""The rows of squares around a point's own, as offsets of its row index."""
+
+
 class SquareGrid:
     """The centres sorted by the square of side ``side`` they lie in, so each point's
     candidates are the centres of its own and the eight adjacent squares: three runs of the
-    sorted keys (one per row of squares).
+    sorted keys (one per row of squares), found for all the points at once (pairs by point,
+    then row, then key).
 
     Why every pair within the reach ``b`` is a candidate: a pair found within it (by a
     squared distance ``d <= fl(b·b)``, which bounds ``fl(dx·dx)`` by it, or by ``hypot``,
@@ -68,19 +73,14 @@ class SquareGrid:
         # clipped to two squares beyond the grid: no centre lies next to those
         low, high = np.full(2, -2.0), self.top.astype(np.float64) + 2.0
         ij = np.where(ok[:, None], np.clip(cells, low, high), -2.0).astype(np.int64)
-        width = self.width
-        ps, js = [], []
-        for dy in (-1, 0, 1):
-            row = (ij[:, 1] + dy) * width + ij[:, 0]
-            lo = np.searchsorted(self.keys, row - 1, side="left")
-            hi = np.searchsorted(self.keys, row + 1, side="right")
-            count = np.where(ok, hi - lo, 0)
-            total = int(count.sum())
-            if total == 0:
-                continue
-            starts = np.repeat(lo - (np.cumsum(count) - count), count)
-            ps.append(np.repeat(np.arange(n, dtype=np.int64), count))
-            js.append(self.index[starts + np.arange(total, dtype=np.int64)])
-        if not ps:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        return np.concatenate(ps), np.concatenate(js)
+        # per point its three rows of squares, each a run of keys (the squares ix - 1 .. ix + 1)
+        row = (ij[:, 1:2] + _ROWS) * self.width + ij[:, 0:1]  # [n, 3]
+        lo = np.searchsorted(self.keys, row - 1, side="left")
+        hi = np.searchsorted(self.keys, row + 1, side="right")
+        count = np.where(ok[:, None], hi - lo, 0)
+        flat = count.ravel()
+        total = int(flat.sum())
+        starts = np.repeat(lo.ravel() - (np.cumsum(flat) - flat), flat)
+        p: I64 = np.repeat(np.arange(n, dtype=np.int64), count.sum(axis=1))
+        j: I64 = self.index[starts + np.arange(total, dtype=np.int64)]
+        return p, j
