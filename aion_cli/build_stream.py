@@ -148,10 +148,12 @@ class StreamStep:
         counts: DetectionCounts,
         link: bool = True,
         cell_size: float | None = None,
+        apart: frozenset[int] = frozenset(),
     ) -> DetectionFeeder:
         """A feeder with the adapters chosen for the log's detection topics, moving rows with
         the logs' TF trees (``tf``); ``link``: link id-less detections into tracks (headings
-        from motion); ``cell_size``: the map's, so rows it cannot place stop before linking."""
+        from motion); ``cell_size``: the map's, so rows it cannot place stop before linking;
+        ``apart``: the recordings whose tracks are their own (:mod:`aion_cli.track_owners`)."""
         return DetectionFeeder(
             tf.shared,
             self.opts.map_frame,
@@ -162,11 +164,18 @@ class StreamStep:
             yaw_seen=self.at.yaw_seen if link else None,
             cell_size=cell_size,
             trees=tf,
+            apart=apart,
         )
 
     def _stream(self, logset: Any, plan: TopicPlan, tf: TfTrees, mapper: Mapper) -> None:
+        from aion_cli.track_owners import tracks_apart
+
+        apart = tracks_apart(logset, plan.names("detections"))  # robots at once: own tracks
+        cell = mapper.state.config.cell_size
         feeders = TopicFeeders(
-            lambda counts: self._feeder(tf, counts, cell_size=mapper.state.config.cell_size),
+            lambda topic, counts: self._feeder(
+                tf, counts, cell_size=cell, apart=apart.get(topic, frozenset())
+            ),
             sorted(plan.names("detections")),
         )
         self._tally = MapperTally(len(feeders.topics))

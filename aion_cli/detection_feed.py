@@ -52,9 +52,10 @@ from aion_cli.detection_jobs import (
 )
 from aion_cli.engine.heading_hold import LookAhead
 from aion_cli.engine.types import I64, DetectionBatch
+from aion_cli.track_owners import TrackLinkers, concat_owners, estimate_by_owner, owners_of
 
 if TYPE_CHECKING:
-    from aion_cli.engine.tracking import LinkerConfig, TrackLinker
+    from aion_cli.engine.tracking import LinkerConfig
     from aion_cli.formats.detections import DetectionAdapter
     from aion_cli.formats.raw import RawMessage
     from aion_cli.formats.tf import TfBuffer
@@ -120,7 +121,8 @@ class DetectionFeeder:
     :func:`aion_cli.pipeline`'s topic choice); ``factory`` builds the missing ones on first
     sight (default: the built-in adapter with shipped definitions). ``linker``: the track
     linker's parameters for id-less detections, None to leave them unlinked. ``trees``: the
-    build's TF trees, ``tf`` their shared buffer (:mod:`aion_cli.tf_trees`)."""
+    build's TF trees, ``tf`` their shared buffer (:mod:`aion_cli.tf_trees`). ``apart``: the
+    recordings whose tracks are their own (:mod:`aion_cli.track_owners`)."""
 
     def __init__(
         self,
@@ -133,6 +135,7 @@ class DetectionFeeder:
         yaw_seen: Mapping[str, float] | None = None,
         cell_size: float | None = None,
         trees: TfTrees | None = None,
+        apart: frozenset[int] = frozenset(),
     ) -> None:
         from aion_cli.engine.heading import HeadingEstimator
         from aion_cli.engine.tracking import LinkerConfig
@@ -145,6 +148,8 @@ class DetectionFeeder:
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
         self.factory = factory or _default_factory
         self.headings = HeadingEstimator()
+        self.apart = apart
+        self._own_headings: dict[int, HeadingEstimator] = {}  # per recording in ``apart``
         if linker is True:
             linker = LinkerConfig()
         self.linker_config: LinkerConfig | None = linker or None
@@ -161,7 +166,7 @@ class DetectionFeeder:
         #: Per row of the last batch decoded: which rows wait for a later heading and which
         #: give it (:class:`aion_cli.engine.heading_hold.LookAhead`).
         self.look = LookAhead.none(0)
-        self._linkers: dict[str, TrackLinker] = {}
+        self._linkers = TrackLinkers(cfg or LinkerConfig())  # per topic (and owner)
         # per topic: the one yaw its messages have shown so far (float), or _VARIES; a build
         # that continues another's stream (a shard learnt in sequence) starts from its state
         self._yaw_seen: dict[str, float] = dict(yaw_seen or {})
@@ -211,6 +216,7 @@ class DetectionFeeder:
         linked = []
         row_segs = []
         firsts = []
+        owners: list[I64 | None] = []
         for (topic, msgtype, encoding), index in groups.items():
             adapter = self.adapter(topic, msgtype, encoding)
             msgs = messages if len(groups) == 1 else [messages[i] for i in index]
@@ -220,9 +226,11 @@ class DetectionFeeder:
             frames, _ = self._informative_yaws(topic, frames, frames.msg_index)
             frames = self.counts.placeable(self.frames.move(frames, msgs), self.cell_size)
             rseg = seg[frames.msg_index]
+            owner = owners_of(msgs, frames.msg_index, self.apart)
             parts.append(frames)
             row_segs.append(rseg)
-            linked.append(self._link(topic, frames, rseg))
+            owners.append(owner)
+            linked.append(self._link(topic, frames, rseg, owner))
             firsts.append(_first_in_segment(np.asarray(index, np.int64), seg))
         if not parts:
             self.look = LookAhead.none(0)
@@ -230,12 +238,14 @@ class DetectionFeeder:
         merged = parts[0] if len(parts) == 1 else FrameDetections.concat(parts)
         link_ids = linked[0] if len(linked) == 1 else np.concatenate(linked)
         rows_segment = row_segs[0] if len(row_segs) == 1 else np.concatenate(row_segs)
+        owner = concat_owners(owners, [len(p) for p in parts])
         order = _time_order(merged.t_ns, rows_segment, row_segs, firsts)
         if order is not None:
             merged, link_ids, rows_segment = (
                 merged.select(order), link_ids[order], rows_segment[order]
             )
-        return self._headings(merged, link_ids, rows_segment), rows_segment
+            owner = None if owner is None else owner[order]
+        return self._headings(merged, link_ids, rows_segment, owner), rows_segment
 
     # --- internals ---------------------------------------------------------------------------
     def _by_segment(
@@ -335,11 +345,14 @@ class DetectionFeeder:
         a shard's ``first`` with the state before it (``aion_cli.shard_fold.fold``)."""
         return {t: (first, self._yaw_seen[t]) for t, first in self._yaw_first.items()}
 
-    def _link(self, topic: str, frames: Any, segment: I64) -> np.ndarray:
+    def _link(
+        self, topic: str, frames: Any, segment: I64, owner: I64 | None = None
+    ) -> np.ndarray:
         """Linked track ids (-1 elsewhere) of the rows that have no other heading source: no
-        track id, no velocity, no (informative) pose yaw. One linker per topic, so that two
-        sensors' detections are never joined into one track; rows are linked segment by
-        segment (``segment`` per row), in order, as separate calls would link them."""
+        track id, no velocity, no (informative) pose yaw. One linker per topic and owner
+        (``owner`` per row, None: all :data:`~aion_cli.track_owners.REST`), so that two
+        sensors' or two robots' detections are never joined into one track; rows are linked
+        segment by segment (``segment`` per row), in order, as separate calls would link them."""
         out = np.full(len(frames), -1, np.int64)
         if self.linker_config is None or len(frames) == 0:
             return out
@@ -348,31 +361,25 @@ class DetectionFeeder:
         rows = np.flatnonzero((frames.track_id < 0) & ~moving & np.isnan(frames.yaw))
         if rows.size == 0:
             return out
-        linker = self._linkers.get(topic)
-        if linker is None:
-            from aion_cli.engine.tracking import TrackLinker
-
-            linker = self._linkers[topic] = TrackLinker(self.linker_config)
-        ids = np.empty(len(rows), np.int64)
-        rseg = segment[rows]
-        cuts = np.flatnonzero(rseg[1:] != rseg[:-1]) + 1
-        for a, b in zip([0, *cuts.tolist()], [*cuts.tolist(), len(rows)], strict=True):
-            part = rows[a:b]
-            ids[a:b] = linker.link(frames.t_ns[part], frames.xyz[part, :2])
-        # the linked tracks of every topic in one number space: id * 2**16 + topic index
-        stride = 1 << 16
-        index = list(self._linkers).index(topic)
-        out[rows] = np.where(ids >= 0, ids * stride + index, -1)
+        self._linkers.link(out, topic, frames, segment, rows, owner)
         return out
 
-    def _headings(self, merged: Any, link_ids: np.ndarray, segment: I64) -> DetectionBatch:
-        """Headings of every row: the main estimator for rows with the source's ids (or none),
-        the linked estimator for linked rows; both tallied by source. Rows are differenced in
+    def _headings(
+        self, merged: Any, link_ids: np.ndarray, segment: I64, owner: I64 | None = None
+    ) -> DetectionBatch:
+        """Headings of every row: the main estimator for rows with the source's ids (or none;
+        a recording's own for the rows whose tracks are its own, ``owner`` per row), the
+        linked estimator for linked rows; both tallied by source. Rows are differenced in
         (segment, time) order (``segment`` per row)."""
-        from aion_cli.engine.heading import SOURCES
+        from aion_cli.engine.heading import SOURCES, HeadingEstimator
 
-        batch = self.headings.to_batch(merged, segment)
-        sources = self.headings.sources
+        if owner is None:
+            batch = self.headings.to_batch(merged, segment)
+            sources = self.headings.sources
+        else:
+            batch, sources = estimate_by_owner(
+                self.headings, self._own_headings, HeadingEstimator, merged, segment, owner
+            )
         is_linked = link_ids >= 0
         self.look = LookAhead.none(len(batch))
         if is_linked.any():
@@ -463,3 +470,4 @@ __all__ = [
     "decoded_chunks",
     "log_adapters",
 ]
+

@@ -108,11 +108,13 @@ class TopicFeeders:
     (:func:`decoded_chunks` runs them in its worker thread); :meth:`topics_of` then gives the
     topic index of each row of a returned batch."""
 
-    def __init__(self, make: Callable[[DetectionCounts], DetectionFeeder], topics: list[str]):
+    def __init__(
+        self, make: Callable[[str, DetectionCounts], DetectionFeeder], topics: list[str]
+    ) -> None:
         self.topics = topics
         self.index = {topic: i for i, topic in enumerate(topics)}
         self.counts = {topic: DetectionCounts() for topic in topics}
-        self.feeders = {topic: make(self.counts[topic]) for topic in topics}
+        self.feeders = {topic: make(topic, self.counts[topic]) for topic in topics}
         self._labels: dict[int, I64] = {}
         self._looks: dict[int, LookAhead] = {}
 

@@ -229,7 +229,7 @@ def test_topic_feeders_merge_topics_per_piece_as_before(seed: int) -> None:
     )
     pieces = _pieces(rng, msgs)
 
-    def make(counts: DetectionCounts) -> DetectionFeeder:
+    def make(topic: str, counts: DetectionCounts) -> DetectionFeeder:
         return DetectionFeeder(None, "map", counts)
 
     ta, tb = TopicFeeders(make, ["/a", "/b", "/c"]), TopicFeeders(make, ["/a", "/b", "/c"])
@@ -249,7 +249,7 @@ def test_an_empty_piece_has_no_topics_to_label() -> None:
     batch whose topic labels are empty — the build feeds it without a KeyError (the office
     scene's first chunk is such a piece)."""
 
-    def make(counts: DetectionCounts) -> DetectionFeeder:
+    def make(topic: str, counts: DetectionCounts) -> DetectionFeeder:
         return DetectionFeeder(None, "map", counts)
 
     feeders = TopicFeeders(make, ["/a"])

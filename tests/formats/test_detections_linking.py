@@ -129,7 +129,7 @@ def test_feeder_linking_carries_over_chunks() -> None:
     parts = [feeder.decode(msgs[i : i + 7]) for i in range(0, len(msgs), 7)]
     np.testing.assert_array_equal(np.concatenate([p.heading for p in parts]), whole.heading)
     assert counts.headings["linked"] == 74
-    assert feeder._linkers["/legs"].next_id == 2  # two people, two tracks
+    assert feeder._linkers.shared["/legs"].next_id == 2  # two people, two tracks
 
 
 def test_feeder_without_linking_leaves_id_less_detections_without_heading() -> None:
@@ -148,7 +148,7 @@ def test_each_topic_links_on_its_own() -> None:
     )
     feeder = DetectionFeeder(None, "laser", DetectionCounts())
     feeder.decode(msgs)
-    assert {k: v.next_id for k, v in feeder._linkers.items()} == {
+    assert {k: v.next_id for k, v in feeder._linkers.shared.items()} == {
         "/front/legs": 2,
         "/rear/legs": 2,
     }
@@ -168,7 +168,7 @@ def test_detections_with_ids_are_not_linked() -> None:
     counts = DetectionCounts()
     feeder = DetectionFeeder(None, "laser", counts)
     feeder.decode(msgs)
-    assert feeder._linkers == {}
+    assert feeder._linkers.shared == {}
     assert counts.headings == {"none": 1, "track": 9}  # the tracker's own ids, differenced
 
 
@@ -190,7 +190,7 @@ def test_real_orientations_are_headings_and_need_no_linking() -> None:
     feeder = DetectionFeeder(None, "laser", counts)
     batch = feeder.decode([_oriented(k, q) for k in range(20)])
     assert counts.headings == {"pose_yaw": 40}
-    assert feeder._linkers == {}
+    assert feeder._linkers.shared == {}
     np.testing.assert_allclose(batch.heading[:2], [0.0, 1.0])
 
 
@@ -203,3 +203,32 @@ def test_orientations_that_never_vary_are_no_headings() -> None:
     assert counts.headings == {"linked": 74, "none": 6}
     known = np.isfinite(batch.heading)
     np.testing.assert_allclose(batch.heading[known & (batch.xyz[:, 0] < 5)], 0.0, atol=1e-9)
+
+
+def test_each_recording_whose_tracks_are_its_own_links_on_its_own() -> None:
+    """Two robots recording at once on one topic (messages marked with their recording, as
+    the merge of several logs marks them): with ``apart`` naming both, each has a linker of
+    its own and the same walkers get the same headings; without, the topic's one linker."""
+    from aion_cli.formats.raw import from_recording
+
+    msgs = [
+        from_recording(pose_array(T0 + k * S // 10, [xy], "/legs"), rec)
+        for k in range(40)
+        for rec, xy in ((1, (0.11 * k, 0.0)), (2, (10.0, 5.0 - 0.11 * k)))
+    ]
+    apart = DetectionFeeder(None, "laser", DetectionCounts(), apart=frozenset({1, 2}))
+    batch = apart.decode(msgs)
+    assert apart._linkers.shared == {}
+    assert {k: v.next_id for k, v in apart._linkers.own.items()} == {
+        ("/legs", 1): 1,
+        ("/legs", 2): 1,
+    }
+    known = np.isfinite(batch.heading)
+    a = batch.xyz[:, 0] < 5
+    np.testing.assert_allclose(batch.heading[known & a], 0.0, atol=1e-9)
+    np.testing.assert_allclose(batch.heading[known & ~a], -math.pi / 2, atol=1e-9)
+    assert int(known.sum()) == 80 - 2 * 3  # as one robot's two walkers (above)
+    shared = DetectionFeeder(None, "laser", DetectionCounts())
+    np.testing.assert_array_equal(shared.decode(msgs).heading, batch.heading)
+    assert list(shared._linkers.shared) == ["/legs"]
+    assert shared._linkers.own == {}
