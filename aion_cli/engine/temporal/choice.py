@@ -210,14 +210,20 @@ def choose_families(
     return flow, direction, int(map_flow[0])
 
 
-def dispersion(flow_chi2: F64, flow_scored: F64, family: I64) -> F64:
-    """φ ≥ 1 per entry for its chosen flow family (pooled toward the map's)."""
-    chi2 = flow_chi2[np.arange(len(family)), family]
+def dispersion(
+    flow_chi2: F64, flow_scored: F64, family: I64, at: I64 | None = None
+) -> F64:
+    """φ ≥ 1 per entry for its chosen flow family (pooled toward the map's, of every
+    entry); ``at``: the positions of the entries ``family`` names (all, in order, if None)."""
+    entries = np.arange(len(family)) if at is None else at
+    chi2 = flow_chi2[entries, family]
     total_scored = float(flow_scored.sum())
     map_phi = np.ones(flow_chi2.shape[1])
     if total_scored > 0:
         map_phi = np.maximum(flow_chi2.sum(axis=0) / total_scored, 1.0)
-    phi = (chi2 + _DISPERSION_PRIOR * map_phi[family]) / (flow_scored + _DISPERSION_PRIOR)
+    phi = (chi2 + _DISPERSION_PRIOR * map_phi[family]) / (
+        flow_scored[entries] + _DISPERSION_PRIOR
+    )
     out: F64 = np.maximum(phi, 1.0)
     return out
 

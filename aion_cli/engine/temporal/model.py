@@ -32,6 +32,7 @@ from aion_cli.engine.temporal.pending import DayWindows, PendingDay
 from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
 from aion_cli.engine.temporal.scoring import close_day
 from aion_cli.engine.temporal.shape_prior import overdispersion
+from aion_cli.engine.temporal.unseen_hours import blind_families, unseen_own_hours
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import window_centre_ns
 
@@ -209,26 +210,6 @@ def choose(
     )
 
 
-def _unseen_own_hours(
-    params: TemporalParams, fc: Forecaster, flow_choice: I64, map_hours: BoolA
-) -> BoolA:
-    """bool[E, hours of the day]: for each entry that chose ``static``, the hours the map
-    observed on some day and the entry on none (its windows summed over the kinds of day);
-    all False for the other entries and without the ``shape`` family (:class:`Predictor`)."""
-    per_day = params.calendar.bins_per_day
-    out = np.zeros((flow_choice.size, per_day), dtype=bool)
-    if "shape" not in params.flow or not params.flow_enabled[params.flow.index("shape")]:
-        return out
-    e = np.flatnonzero(flow_choice == params.flow.index("static"))
-    if e.size == 0:
-        return out
-    bins = np.arange(params.n_profile)
-    windows = fc.profile_windows_at(e[:, None], bins[None, :])
-    own = windows.reshape(e.size, -1, per_day).sum(axis=1) > 0
-    out[e] = ~own & map_hours[None, :]
-    return out
-
-
 @dataclass
 class Predictor:
     """The time-independent part of the forecasts of entries ``rows``: every family's parts,
@@ -239,7 +220,8 @@ class Predictor:
     chooses a temporal family f_map): the entries' forecasts at time t are scaled by one factor
     so that their total is the map's forecast with f_map (``Forecaster.map_total``: the pooled
     periodic profile of the whole map for the periodic families, the entries' FreMEn sum for
-    FreMEn) — the best-supported forecast of *how busy the whole map is* — while each entry
+    FreMEn, an entry's share by the map's profile at an hour it never observed: below) —
+    the best-supported forecast of *how busy the whole map is* — while each entry
     keeps its own family's share of it. Sparse entries that chose ``static`` on noisy evidence then
     still follow the map's rhythm, and the map's total is never diluted by them.
 
@@ -254,18 +236,23 @@ class Predictor:
     sense: the families carry the other days' rhythm there (the profile falls back to the
     hour of the day).
 
-    Hours an entry never observed (``unseen_own``, per entry and hour of the day): an entry
-    that chose ``static`` chose it on the windows it was observed in — a place the robot
-    passes by day only was scored by day only, where its flat rate may well beat the
-    group's rhythm — and a constant rate says nothing of the hours it never saw. At an hour
-    the map observed (elsewhere) but the entry never did, such an entry forecasts with
-    ``shape`` instead (its rate times its group's periodic shape, which the entries observed
-    at that hour measured), and names that family: on the bundled sample a place seen only
-    07–19 h, with nobody anywhere at night, was forecast at half its daytime level all night
-    (its constant rate took half of the reconciled night total). The periodic families need
-    no such rule (``profile`` at a bin without windows is its ``shape`` parent); FreMEn's
-    sinusoids are left as chosen. Without the ``shape`` family (``ModelConfig.families``)
-    ``static`` stays."""
+    Hours an entry never observed (``unseen_own``, per entry and hour of the day,
+    :mod:`~aion_cli.engine.temporal.unseen_hours`): an entry that chose ``static`` or a
+    FreMEn family chose it on the windows it was observed in — a place the robot passes by
+    day only was scored by day only, where its flat rate or its sinusoids may well beat the
+    group's rhythm — and neither says anything of the hours it never saw. At an hour the map
+    observed (elsewhere) but the entry never did, such an entry forecasts with ``shape``
+    instead (its rate times its group's periodic shape, which the entries observed at that
+    hour measured), and names that family: on the bundled sample a place seen only 07–19 h,
+    with nobody anywhere at night, was forecast at half its daytime level all night (its
+    constant rate took half of the reconciled night total); a desk watched 08–18 h whose
+    rate rises through the day chose ``fremen1``, whose cosine stood at 9.5 % of its noon
+    forecast at night (2.5 % with ``shape``). The periodic families need no such rule
+    (``profile`` at a bin without windows is its ``shape`` parent). A map total reconciled to
+    FreMEn takes, at an hour an entry never observed, that entry's rate times the map's shape
+    (as the periodic totals do) instead of its sinusoids, which the factor would otherwise
+    spread back over the others. Without the ``shape`` family (``ModelConfig.families``) the
+    chosen family stays."""
 
     params: TemporalParams
     forecaster: Forecaster
@@ -303,11 +290,10 @@ class Predictor:
         flow_choice, dir_choice, map_choice = choose(
             params, state, rows, groups, n_groups, components
         )
-        phi = dispersion(state.flow_chi2[rows], state.flow_scored[rows], flow_choice)
+        chi2, scored = state.flow_chi2[rows], state.flow_scored[rows]
+        phi = dispersion(chi2, scored, flow_choice)
         static = np.full_like(flow_choice, params.flow.index("static"))
-        phi_static = dispersion(state.flow_chi2[rows], state.flow_scored[rows], static)
-        shape = np.full_like(flow_choice, params.flow.index("shape"))
-        phi_shape = dispersion(state.flow_chi2[rows], state.flow_scored[rows], shape)
+        phi_static = dispersion(chi2, scored, static)
         name = params.flow[map_choice]
         map_family = name if params.config.reconcile and name != "static" else None
         per_day = params.calendar.bins_per_day
@@ -315,7 +301,18 @@ class Predictor:
         hours[observed_bins(params, state, rows, [], 0) % per_day] = True
         seen = np.tile(hours, params.n_profile // per_day)
         extrapolated = ~seen if seen.any() else seen  # nothing observed: nothing to fall to
-        unseen_own = _unseen_own_hours(params, fc, flow_choice, hours)
+        # the hours each entry never observed: of those whose family says nothing there,
+        # and of every entry when the map's total is FreMEn's (``scale``)
+        blind = blind_families(params)
+        fremen_total = map_family is not None and map_family.startswith("fremen")
+        ask = blind[flow_choice] | (fremen_total and bool(blind.any()))
+        unseen_own = unseen_own_hours(params, fc, np.flatnonzero(ask), hours)
+        # shape's dispersion, read only where an entry forecasts with it in its stead
+        falls = np.flatnonzero(unseen_own.any(axis=1) & blind[flow_choice])
+        phi_shape = np.ones(rows.size)
+        if falls.size:
+            shape = np.full(falls.size, params.flow.index("shape"), dtype=np.int64)
+            phi_shape[falls] = dispersion(chi2, scored, shape, at=falls)
         return cls(
             params,
             fc,
@@ -331,15 +328,28 @@ class Predictor:
             level_variance(state.day_level, phi_total),
         )
 
+    def __post_init__(self) -> None:
+        self._blind_rows = blind_families(self.params)[self.flow_choice]
+        self._any_fall = bool((self.unseen_own.any(axis=1) & self._blind_rows).any())
+        fremen_total = self.map_family is not None and self.map_family.startswith("fremen")
+        self._unseen_total = fremen_total and bool(self.unseen_own.any())
+
+    def _falls(self, e: I64, h: I64) -> BoolA | None:
+        """Whether each pair's entry forecasts with ``shape`` at an hour it never observed
+        (``unseen_own``, never an extrapolated hour); None where no entry ever does."""
+        if not self._any_fall:
+            return None
+        out: BoolA = self.unseen_own[e, h % self.params.calendar.bins_per_day]
+        out &= self._blind_rows[e]
+        return out
+
     def _flow_choice(self, e: I64, h: I64) -> I64:
         """Each pair's flow family: the entry's choice, ``static`` in extrapolated bins,
-        ``shape`` for a ``static`` entry at an hour it never observed (``unseen_own``)."""
-        static = self.params.flow.index("static")
-        choice = self._at_pairs(self.flow_choice[e], static, h)
-        if not self.unseen_own.any():
+        ``shape`` for a ``static`` or FreMEn entry at an hour it never observed."""
+        choice = self._at_pairs(self.flow_choice[e], self.params.flow.index("static"), h)
+        fall = self._falls(e, h)
+        if fall is None:
             return choice
-        hour = h % self.params.calendar.bins_per_day
-        fall = (choice == static) & self.unseen_own[e, hour]
         out: I64 = np.where(fall, self.params.flow.index("shape"), choice)
         return out
 
@@ -417,8 +427,11 @@ class Predictor:
             h = np.repeat(bins[a : a + k], everyone.size)
             t_s = np.repeat(secs[a : a + k], everyone.size)
             raw[a : a + k] = self._flows(e, h, t_s).reshape(k, everyone.size).sum(axis=1)
-            total = fc.map_total(self.map_family, e, h, t_s).reshape(k, everyone.size)
-            target[a : a + k] = total.sum(axis=1)
+            total = fc.map_total(self.map_family, e, h, t_s)
+            if self._unseen_total:  # FreMEn's: no entry's sinusoids where it never was
+                at = np.flatnonzero(self.unseen_own[e, h % self.params.calendar.bins_per_day])
+                total[at] = fc.map_total("shape", e[at], h[at], t_s[at])
+            target[a : a + k] = total.reshape(k, everyone.size).sum(axis=1)
         factor = np.ones(times.size)
         np.divide(target, raw, out=factor, where=(raw > 0) & ~self.extrapolated[bins])
         out[:] = factor[inverse.reshape(-1)]
@@ -467,13 +480,13 @@ class Predictor:
         """The variance of the window count at (entry position, profile bin) pairs whose
         expected count is ``flow``: φ · flow, with the entry's dispersion φ of its chosen
         family (of ``static`` in extrapolated bins, where ``static`` forecasts; of ``shape``
-        where a ``static`` entry forecasts with it, at an hour it never observed). ``flow``
-        may be a share of the window's forecast (a window watched in part): counts over
-        a share s of a window have mean s·λ and variance φ·s·λ, as the day-ahead scoring
+        where a ``static`` or FreMEn entry forecasts with it, at an hour it never observed).
+        ``flow`` may be a share of the window's forecast (a window watched in part): counts
+        over a share s of a window have mean s·λ and variance φ·s·λ, as the day-ahead scoring
         measured φ (``scoring``)."""
         phi = np.where(self.extrapolated[h], self.phi_static[e], self.phi[e])
-        if self.unseen_own.any():
-            fall = self.unseen_own[e, h % self.params.calendar.bins_per_day]
+        fall = self._falls(e, h)
+        if fall is not None:
             phi = np.where(fall, self.phi_shape[e], phi)
         out: F64 = phi * flow
         return out
