@@ -33,8 +33,9 @@ def blind_families(params: TemporalParams) -> BoolA:
 
 def unseen_own_hours(params: TemporalParams, fc: Forecaster, e: I64, map_hours: BoolA) -> BoolA:
     """bool[E, hours of the day]: for entry positions ``e``, the hours ``map_hours`` (the
-    map observed on some day) at which the entry was observed on none (its windows summed
-    over the kinds of day); all False for the other entries."""
+    map observed on some day; those a fixed sensor watched, which watched every entry, may
+    be left out) at which the entry was observed on none (its windows summed over the kinds
+    of day); all False for the other entries."""
     per_day = params.calendar.bins_per_day
     out = np.zeros((fc.rows.size, per_day), dtype=bool)
     hours = np.flatnonzero(map_hours)
