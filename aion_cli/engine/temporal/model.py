@@ -306,9 +306,7 @@ class Predictor:
         blind = blind_families(params)
         fremen_total = map_family is not None and map_family.startswith("fremen")
         ask = blind[flow_choice] | (fremen_total and bool(blind.any()))
-        # a fixed sensor's hours watched every entry: only the others are looked at
-        fixed = (state.glob.profile[0].reshape(-1, per_day) > 0).any(axis=0)
-        unseen_own = unseen_own_hours(params, fc, np.flatnonzero(ask), hours & ~fixed)
+        unseen_own = unseen_own_hours(params, fc, np.flatnonzero(ask), hours)
         # shape's dispersion, read only where an entry forecasts with it in its stead
         falls = np.flatnonzero(unseen_own.any(axis=1) & blind[flow_choice])
         phi_shape = np.ones(rows.size)

@@ -19,6 +19,7 @@ import numpy as np
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.fremen_parts import BLOCK
 from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pooling import rows_of
 from aion_cli.engine.types import I64, BoolA
 
 
@@ -33,19 +34,20 @@ def blind_families(params: TemporalParams) -> BoolA:
 
 def unseen_own_hours(params: TemporalParams, fc: Forecaster, e: I64, map_hours: BoolA) -> BoolA:
     """bool[E, hours of the day]: for entry positions ``e``, the hours ``map_hours`` (the
-    map observed on some day; those a fixed sensor watched, which watched every entry, may
-    be left out) at which the entry was observed on none (its windows summed over the kinds
-    of day); all False for the other entries."""
+    map observed on some day) at which the entry was observed on none: no window of its own
+    in any kind of day, and none of a fixed sensor, which watches every entry; all False for
+    the other entries."""
     per_day = params.calendar.bins_per_day
     out = np.zeros((fc.rows.size, per_day), dtype=bool)
-    hours = np.flatnonzero(map_hours)
+    state = fc.state
+    fixed = (state.glob.profile[0].reshape(-1, per_day) > 0).any(axis=0)
+    hours = np.flatnonzero(map_hours & ~fixed)
     if e.size == 0 or hours.size == 0:
         return out
-    kinds = np.arange(params.n_profile // per_day)
-    bins = (kinds[:, None] * per_day + hours[None, :]).reshape(-1)  # kind-major, as the bins
+    kinds = params.n_profile // per_day
     for a in range(0, e.size, BLOCK):  # E x bins temporaries stay small on any map
         block = e[a : a + BLOCK]
-        windows = fc.profile_windows_at(block[:, None], bins[None, :])
-        own = windows.reshape(block.size, kinds.size, hours.size).sum(axis=1) > 0
+        windows = np.asarray(rows_of(state.obs.profile, fc.rows[block]))  # kind-major bins
+        own = windows.reshape(block.size, kinds, per_day).sum(axis=1)[:, hours] > 0
         out[block[:, None], hours[None, :]] = ~own
     return out
