@@ -118,7 +118,27 @@ def detection_frames(
             counts = DetectionCounts()
             counts.count_empty(decoded)
             report.empty_messages += counts.empty_messages
+            kept_none = _kept_none(info.topic, len(sample), decoded, counts)
+            report.warnings += [kept_none] if kept_none is not None else []
     return out
+
+
+def _kept_none(topic: str, messages: int, decoded: Any, counts: Any) -> str | None:
+    """The warning of a sample whose items a ``--detections-mapping`` dropped, every one, by
+    its filter or its paths (short arrays), in the words of the hint ``aion build`` then
+    fails with (:func:`aion_cli.build_hints.no_detection_hint`); None where the sample kept
+    someone, or held nobody, or the class filter of a built-in type dropped its items (the
+    first messages of a tracker may well be of other classes)."""
+    from aion_cli.build_hints import no_detection_hint
+
+    counts.add_decoded(counts.topic(topic), decoded.filtered)
+    if len(decoded) or not (counts.dropped.get("filter") or counts.dropped.get("short_array")):
+        return None
+    hint = no_detection_hint([topic], counts.dropped, counts.filter_seen)
+    return (
+        f"{topic}: no item of its first {messages:,} message(s) is kept (aion build would "
+        f"stop on it if none later is): {hint.removesuffix('; ')}"
+    )
 
 
 def _tf_sample(logset: Any, plan: Any) -> tuple[TfBuffer, NormTally]:

@@ -246,6 +246,31 @@ def test_a_filter_that_drops_every_item_names_the_values_it_saw(
     assert not out.exists()
 
 
+def test_info_names_a_filter_that_drops_every_item_of_its_sample(tmp_path: Path) -> None:
+    """``aion info --detections-mapping`` with the filter above (``kind`` is "person" or
+    "robot", never "pedestrian") said nothing, the build then failing: info warns in the
+    build's words, with the items of its sample (10 messages, a person and a robot each)
+    and the values ``kind`` held; a filter that keeps the person gives no such warning."""
+    log = two_mapped_topics(tmp_path / "mon.mcap")
+    mapping = tmp_path / "agents.toml"
+    text = (f'[[topic]]\ntopic = "/sim/agents"\nmsgtype = "{AGENTS}"\narray = "agents"\n'
+            'position = "position[0..2]"\nid = "name"\n'
+            'filter = { field = "kind", equals = ["pedestrian"] }\n')  # fmt: skip
+    mapping.write_text(text)
+    info = run_json("info", log, "--detections-mapping", mapping, "--format", "json")
+    (said,) = [w for w in info["warnings"] if "filter dropped" in w]
+    assert said.startswith("/sim/agents: no item of its first 10 message(s) is kept")
+    assert "the --detections-mapping's filter dropped all 20 items; its field held " \
+        'kind = "person" (10), kind = "robot" (10); list the values' in said  # fmt: skip
+    assert "--suggest-mapping /sim/agents" in said
+    table = run("info", log, "--detections-mapping", mapping)
+    assert table.exit_code == 0, table.stderr
+    assert "filter dropped all 20 items" in " ".join((table.stdout + table.stderr).split())
+    mapping.write_text(text.replace('"pedestrian"', '"person"'))
+    kept = run_json("info", log, "--detections-mapping", mapping, "--format", "json")
+    assert not [w for w in kept["warnings"] if "is kept" in w or "filter" in w]
+
+
 def test_suggested_mapping_of_an_agent_array_builds(tmp_path: Path) -> None:
     log = two_mapped_topics(tmp_path / "mapped.mcap")
     result = run("info", log, "--suggest-mapping", "/sim/agents")
