@@ -239,7 +239,8 @@ class StreamStep:
             )
         if not self.shard:  # a parallel build's parent checks its shards' together
             self.report.warnings.extend(apart_warnings(
-                self.opts, *self.times_apart(), self.report.observation
+                self.opts, *self.times_apart(), self.report.observation,
+                mapper.state.config.timezone,
             ))
 
     def times_apart(self) -> tuple[tuple[int, int] | None, tuple[int, int] | None]:

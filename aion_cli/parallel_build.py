@@ -291,7 +291,9 @@ class ParallelBuild:
 
         messages = joined([r.times_apart[0] for r in results])
         agents = joined([r.times_apart[1] for r in results])
-        report.warnings.extend(apart_warnings(self.opts, messages, agents, report.observation))
+        report.warnings.extend(
+            apart_warnings(self.opts, messages, agents, report.observation, self.config.timezone)
+        )
         where = "Dask cluster" if self.opts.scheduler else f"{workers} worker processes"
         slowest = max((r.seconds for r in results), default=0.0)
         peak = max((r.peak_rss_mb for r in results), default=0.0)

@@ -139,17 +139,15 @@ def joined_times(
 
 
 def apart_warnings(
-    opts: BuildOptions, messages: Span | None, agents: Span | None, observation: str
+    opts: BuildOptions, messages: Span | None, agents: Span | None, observation: str, zone: str
 ) -> list[str]:
     """A build's warnings on times apart from its logs' messages (``messages``: the first and
     last, ns; None: none): the ``--observed`` spans as typed (``opts.observed_typed``) unless
     a robot trajectory observed instead (``observation`` of TF or the agent layer: the spans
     were set aside with a warning of their own, so they count nothing), and the robot poses
     of the agent layer (``agents``, first and last) when the build observed with it, named
-    in the zone the spans were read in."""
-    from aion_cli.log_zone import continued_zone
-
-    zone = opts.timezone or continued_zone(opts.continue_from)
+    in ``zone``: the table's (its config's ``timezone``: ``--tz``, the zone the logs declare,
+    the continued map's; for ``evaluate holdout``, the map's), which the spans were read in."""
     first, last = messages if messages is not None else (None, None)
     robot = observation.startswith(("tf ", "scene-graph"))
     typed = () if robot else opts.observed_typed

@@ -35,3 +35,25 @@ def test_an_observed_span_apart_from_the_test_logs_is_warned_of(
     inside = run_json("evaluate", "holdout", site, test, "--format", "json",
                       "--observed", "2026-01-11T09:00..2026-01-11T10:00")  # fmt: skip
     assert not [w for w in inside["warnings"] if w.startswith("--observed")]
+
+
+def test_the_warning_names_its_times_in_the_maps_zone(corridor: tuple, tmp_path: Path) -> None:
+    """A map built in Europe/Berlin reads ``--observed`` in Berlin's time, and its warning
+    named the span in UTC (``07:00:00+00:00``, not the ``08:00`` typed): it names both the
+    span and the logs' messages in the map's zone, as ``aion build --tz Europe/Berlin`` of the
+    same log and span does."""
+    _site, train, test, _truth = corridor
+    site = tmp_path / "berlin.aion"
+    made = run("build", train, "-o", site, "--tz", "Europe/Berlin", "-q")
+    assert made.exit_code == 0, made.stderr
+    span = "2016-01-11T08:00..2016-01-11T18:00"
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json", "--observed", span)
+    (said,) = [w for w in doc["warnings"] if w.startswith("--observed")]
+    assert said.startswith(
+        f'--observed "{span}" (2016-01-11 08:00:00+01:00 .. 2016-01-11 18:00:00+01:00) lies '
+        "wholly before the logs' messages (2026-01-11 09:00:00+01:00 .. "  # 08:00 UTC
+    )
+    built = run("build", test, "-o", tmp_path / "test.aion", "--observed", span, "-q",
+                "--tz", "Europe/Berlin")  # fmt: skip
+    assert built.exit_code == 0, built.stderr
+    assert f"warning: {said}" in built.stderr.replace("\n", " ")
