@@ -116,7 +116,7 @@ def fixed_sensor_windows(
         extra = declared_windows(declared, spans, delta, fill)
         extra = extra[times.inside_limits(extra * delta)]
         added = np.setdiff1d(extra, windows, assume_unique=True)
-        notes.append(observed_note(added.size, delta))
+        notes.append(observed_note(added.size, delta, len({path for path, _, _ in spans})))
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
             report.declared_start_ns = declared_start_ns(added, declared, delta)

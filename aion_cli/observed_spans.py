@@ -30,12 +30,15 @@ OBSERVED_NOTE = "--observed: "
 """How :func:`observed_note` starts (a parallel build's parent replaces its shards' notes)."""
 
 
-def observed_note(added: int, delta: int) -> str:
-    """The note of the windows without a message that ``--observed`` spans made observed
-    (``added`` windows of ``delta`` ns)."""
+def observed_note(added: int, delta: int, files: int) -> str:
+    """The note of the windows without a message that ``--observed`` spans (or the spans the
+    logs record) made observed (``added`` windows of ``delta`` ns), the time between the logs
+    named only where there are logs apart (``files``: the log files read, a rosbag2 bag's
+    storage files one): one log's own declared span has no time between logs."""
+    between = ", the time between the logs included" if files > 1 else ""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({time_text(added * delta)}), the time between the logs included"
+        f"({time_text(added * delta)}){between}"
     )
 
 

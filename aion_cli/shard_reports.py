@@ -151,7 +151,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
     if added:
         delta = next((p.fixed_windows[3] for p in parts if p.fixed_windows is not None), 0)
         out.observed_added = sum(added)
-        out.notes.append(observed_note(out.observed_added, delta))
+        files = len({path for p in parts for path, _, _ in p.recording_spans})  # a cut log: 1
+        out.notes.append(observed_note(out.observed_added, delta, files))
     ends = [p.declared_end_ns for p in parts if p.declared_end_ns is not None]
     out.declared_end_ns = max(ends, default=None)  # the last shard's: where the map's reach ends
     silent = [p.silent_windows for p in parts if p.silent_windows is not None]

@@ -232,3 +232,28 @@ def test_two_logs_whose_spans_overlap_mark_their_shared_stamps_twice(
     ]
     assert windows["two"].max() == pytest.approx(4 - 1 / 30 + 9)
     assert windows["two"].tobytes() == windows["one"].tobytes()
+
+
+@pytest.mark.parametrize("logs", [1, 2])
+def test_one_logs_own_declared_span_has_no_time_between_logs(tmp_path: Path, logs: int) -> None:
+    """A Lincoln file whose header declares 2017-06-09 08:13:47..11:13:47 (two walkers for
+    20 s at 09:13:47), converted with its header span and built alone: the note of the
+    windows the span made observed said "the time between the logs included", of one log.
+    It says so only of logs apart: the same file a day later, built beside it, keeps it."""
+    t0 = 1_496_999_627  # 2017-06-09 09:13:47 UTC
+    built = []
+    for day in range(logs):
+        t = t0 + day * 86_400
+        rows = [f"{t + k} {k} -1.0\n{t + k} 10.0 {5.0 - 0.8 * k}" for k in range(20)]
+        text = tmp_path / f"day{day}.txt"
+        text.write_text(f"{t - 3600} {t + 7200}\n-8 12\n-3 17\n" + "\n".join(rows) + "\n")
+        log = tmp_path / f"day{day}.mcap"
+        converted = run("convert", text, "--layout", "lincoln", "-o", log, "-q")
+        assert converted.exit_code == 0, converted.stderr
+        built.append(log)
+    report = run_json("build", *built, "-o", tmp_path / "m.aion", "--format", "json")
+    (note,) = [n for n in report["notes"] if n.startswith("--observed: ")]
+    # 08:10-11:20 is 19 windows a day, the one of 09:10 holding the walkers
+    head = f"--observed: {18 * logs} window(s) without a message taken as observed "
+    assert note.startswith(head), note
+    assert note.endswith("the time between the logs included") is (logs == 2), note
