@@ -303,8 +303,10 @@ def reading_options(
         if b <= a:
             raise InputError(
                 f"observed span {ta!r}..{tb!r}: the end is not after the start",
-                hint="give each span as (start, end) with end later than start",
-            )
+                hint="give each span as (start, end) with end later than start"
+                + (": a span observed lasts, and (T, T) is one instant (only Map.plan's leave "
+                   "takes it, as the one departure T)" if a == b else ""),
+            )  # fmt: skip
     fields: dict[str, object] = {
         "log_format": text(options.get("log_format"), "log_format"),
         "detection_topics": tuple(str(t) for t in topics),

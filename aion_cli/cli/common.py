@@ -272,11 +272,14 @@ def parse_span(text: str, zone: Zone, option: str, instant: bool = False) -> tup
         read += ": a clock change skips or repeats an hour there)" if changed else ")"
         if instant and end == start and not changed:
             return start, end
+        empty = end == start and not changed  # one time: a point, which observes nothing
         raise InputError(
             f"{option} {text!r}: the end is not after the start{read}",
             hint="give the span as START..END with END later than START"
-            + (" (or the same time, for one departure)" if instant else ""),
-        )
+            + (" (or the same time, for one departure)" if instant else "")
+            + (f": {option} takes a span of time, and T..T is one instant (only --leave "
+               "takes it, as the one departure T)" if empty and not instant else ""),
+        )  # fmt: skip
     return start, end
 
 

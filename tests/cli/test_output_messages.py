@@ -157,6 +157,35 @@ def test_a_leave_of_one_time_is_one_departure(office: Office) -> None:
     assert_one_line_error(back.stderr, "the end is not after the start")
 
 
+def test_an_observed_span_of_one_time_is_refused_saying_why(
+    office: Office, tmp_path: Path
+) -> None:
+    """``T..T`` is one departure for ``--leave`` (above) but no span a sensor recorded: build
+    and ``evaluate holdout`` refuse ``--observed T..T``, and the hint had only asked for an
+    END later than START, as for a reversed span; it says that T..T is one instant, which
+    only ``--leave`` takes. A reversed span keeps the plain hint."""
+    point = f"{AT}..{AT}"
+    why = "--observed takes a span of time, and T..T is one instant (only --leave takes it"
+    for command in (("build", office.log, "-o", tmp_path / "m.aion"),
+                    ("evaluate", "holdout", office.map, office.log)):  # fmt: skip
+        refused = run(*command, "--observed", point)
+        assert refused.exit_code == 2, refused.stderr
+        assert_one_line_error(refused.stderr, f"--observed '{point}': the end is not after")
+        assert why in refused.stderr
+        back = run(*command, "--observed", f"{AT}..2026-11-23T08:29")
+        assert back.exit_code == 2, back.stderr
+        assert "hint: give the span as START..END with END later than START\n" in back.stderr
+    assert not (tmp_path / "m.aion").exists()
+    left = run("plan", office.map, "--from", "p1", "--to", "p3", "--leave", point)
+    assert left.exit_code == 0, left.stderr
+    import aion_cli as aion
+    from aion_cli.errors import InputError
+
+    with pytest.raises(InputError, match="the end is not after the start") as caught:
+        aion.build(office.log, tmp_path / "api.aion", observed=[(AT, AT)])
+    assert "(T, T) is one instant (only Map.plan's leave takes it" in (caught.value.hint or "")
+
+
 def test_info_describes_a_scene_aion_exported_without_warnings(
     office: Office, tmp_path: Path
 ) -> None:
