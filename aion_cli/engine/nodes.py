@@ -9,6 +9,7 @@ Which node a cell binds to is :mod:`aion_cli.engine.nearest`'s.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -194,53 +195,113 @@ class NodeTable:
         )
 
 
-@dataclass
-class Redirects:
-    """φ: cell ``keys`` (sorted, unique) -> owning ``nodes`` (node ids)."""
+def _holds_any(table: I64, new_keys: I64) -> bool:
+    """Whether the sorted ``table`` holds any of the sorted ``new_keys``: each compared with
+    the key just before its place (``side="right"`` puts it after an equal one)."""
+    at = np.searchsorted(table, new_keys, side="right")
+    after = at > 0
+    return bool(np.any(table[at[after] - 1] == new_keys[after]))
 
-    keys: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
-    nodes: U64 = field(default_factory=lambda: np.zeros(0, np.uint64))
+
+#: pending redirects :class:`Redirects` keeps apart before merging them into its sorted table
+#: (at least; ``4 · √n`` for a table of n keys: an add costs the pending keys plus its share
+#: of the merge, O(√n) per key instead of a copy of the whole table)
+PENDING = 256
+
+
+class Redirects:
+    """φ: cell ``keys`` (sorted, unique) -> owning ``nodes`` (node ids).
+
+    Adds go to a small sorted table of pending redirects, merged into the main one when it
+    passes :data:`PENDING` keys (or ``4 · √n``) or when ``keys`` / ``nodes`` are read: an add
+    had copied the whole table (``insert_sorted``, O(n) per bind), and :meth:`lookup` and
+    :meth:`add`'s check search both tables. The keys are unique, so the merged table is the
+    one adding every key into the main table gives (docs/BENCHMARKS.md, stop 66)."""
+
+    def __init__(self, keys: I64 | None = None, nodes: U64 | None = None) -> None:
+        self._keys: I64 = np.zeros(0, np.int64) if keys is None else keys
+        self._nodes: U64 = np.zeros(0, np.uint64) if nodes is None else nodes
+        self._pending_keys: I64 = np.zeros(0, np.int64)
+        self._pending_nodes: U64 = np.zeros(0, np.uint64)
+
+    @property
+    def keys(self) -> I64:
+        """The redirected keys, sorted (the pending ones merged in first)."""
+        self._merge()
+        return self._keys
+
+    @keys.setter
+    def keys(self, value: I64) -> None:
+        self._merge()
+        self._keys = value
+
+    @property
+    def nodes(self) -> U64:
+        """The node each of :attr:`keys` is redirected to."""
+        self._merge()
+        return self._nodes
+
+    @nodes.setter
+    def nodes(self, value: U64) -> None:
+        self._merge()
+        self._nodes = value
 
     def __len__(self) -> int:
-        return len(self.keys)
+        return len(self._keys) + len(self._pending_keys)
+
+    def _merge(self) -> None:
+        """Merge the pending redirects into the main table (keys unique: no ties)."""
+        if len(self._pending_keys) == 0:
+            return
+        at = np.searchsorted(self._keys, self._pending_keys)
+        self._keys = insert_sorted(self._keys, at, self._pending_keys)
+        self._nodes = insert_sorted(self._nodes, at, self._pending_nodes)
+        self._pending_keys = np.zeros(0, np.int64)
+        self._pending_nodes = np.zeros(0, np.uint64)
 
     def add(self, keys: I64, nodes: U64) -> None:
         """Record new redirects (keys must not be redirected already: ``ValueError``, the
         table left as it was).
 
-        The new keys are merged into the sorted table where they belong: the stable sort of
-        old and new keys together, without sorting the whole table again at every bind
-        (issue 15: a live graph binds cells at most of its updates, against tens of thousands
-        of redirects). A repeated key is looked for only where it could be: among the new
-        keys, sorted, side by side, and in the old key just before each new key's place (the
-        ``side="right"`` search puts a new key after an equal old one), so the check costs
-        O(new keys · log table) instead of a pass over the whole table at every bind."""
+        The new keys, sorted (stably), go where they belong in the pending table, which is
+        merged into the main one once it is large (:data:`PENDING`): the main table is not
+        copied at every bind (issue 15: a live graph binds cells at most of its updates,
+        against tens of thousands of redirects). A repeated key is looked for only where it
+        could be: among the new keys, sorted, side by side, and in each table at the key
+        just before each new key's place (:func:`_holds_any`), so the check costs O(new
+        keys · log table) instead of a pass over the whole table at every bind."""
         new_keys = np.asarray(keys, dtype=np.int64)
         new_nodes = np.asarray(nodes, dtype=np.uint64)
         if new_keys.size > 1 and not bool(np.all(new_keys[1:] >= new_keys[:-1])):
             order = np.argsort(new_keys, kind="stable")
             new_keys, new_nodes = new_keys[order], new_nodes[order]
-        at = np.searchsorted(self.keys, new_keys, side="right")
-        after = at > 0
-        if bool(np.any(new_keys[1:] == new_keys[:-1])) or bool(
-            np.any(self.keys[at[after] - 1] == new_keys[after])
+        if bool(np.any(new_keys[1:] == new_keys[:-1])) or any(
+            _holds_any(table, new_keys) for table in (self._keys, self._pending_keys)
         ):
             raise ValueError("a cell key was redirected twice")
-        self.keys = insert_sorted(self.keys, at, new_keys)
-        self.nodes = insert_sorted(self.nodes, at, new_nodes)
+        at = np.searchsorted(self._pending_keys, new_keys)
+        self._pending_keys = insert_sorted(self._pending_keys, at, new_keys)
+        self._pending_nodes = insert_sorted(self._pending_nodes, at, new_nodes)
+        if len(self._pending_keys) > max(PENDING, 4 * math.isqrt(len(self._keys))):
+            self._merge()
 
     def drop_nodes(self, node_ids: U64) -> None:
         """Forget every redirect to the given nodes."""
         keep = ~np.isin(self.nodes, node_ids)
-        self.keys, self.nodes = self.keys[keep], self.nodes[keep]
+        self._keys, self._nodes = self._keys[keep], self._nodes[keep]
 
     def lookup(self, keys: I64) -> tuple[U64, BoolA]:
         """Node ids for ``keys`` and a found mask (0 where not redirected)."""
-        if len(self.keys) == 0:
-            return np.zeros(len(keys), np.uint64), np.zeros(len(keys), bool)
-        pos = np.minimum(np.searchsorted(self.keys, keys), len(self.keys) - 1)
-        found = self.keys[pos] == keys
-        return np.where(found, self.nodes[pos], np.uint64(0)).astype(np.uint64), found
+        out = np.zeros(len(keys), np.uint64)
+        found = np.zeros(len(keys), bool)
+        for table, nodes in ((self._keys, self._nodes), (self._pending_keys, self._pending_nodes)):
+            if len(table) == 0:
+                continue
+            pos = np.minimum(np.searchsorted(table, keys), len(table) - 1)
+            hit = table[pos] == keys
+            out[hit] = nodes[pos[hit]]
+            found |= hit
+        return out, found
 
     def to_arrays(self, prefix: str = "redirect_") -> dict[str, np.ndarray]:
         return {f"{prefix}keys": self.keys.copy(), f"{prefix}nodes": self.nodes.copy()}
