@@ -47,7 +47,7 @@ from aion_cli.api_checks import (
     ZoneLike,
 )
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
-from aion_cli.api_results import MEMORY, Plan, Table
+from aion_cli.api_results import MEMORY, Files, Plan, Table
 from aion_cli.api_time import query_time, query_times, query_zone, to_ns
 from aion_cli.api_typing import Made, Report
 from aion_cli.errors import InputError
@@ -379,7 +379,7 @@ class Map(Generic[Report]):
         force: bool = False,
         series: PairOf[TimeLike] | None = None,
         step: StepLike | None = None,
-    ) -> list[Path]:
+    ) -> Files:
         """Write the scene (PLY or PCD) and ``entries.csv`` / ``entries.json`` at ``time``
         (or as observed) into ``folder``, optionally with the path planned between
         ``path = (start, goal)``; the files written (as ``aion export``). ``format="mcap"``
@@ -391,10 +391,13 @@ class Map(Generic[Report]):
         ``.pcd`` (the whole scene as one file) (a ``.png`` is :meth:`picture`'s), else a ply
         folder. Files of aion's no export wrote there are replaced only with ``force``.
         ``series=(start, end)``: every ``step`` (default ``"1h"``) from start to end, as
-        ``aion export --from --to --step`` (a folder per time, or one MCAP file to scrub)."""
+        ``aion export --from --to --step`` (a folder per time, or one MCAP file to scrub).
+        The list returned is a :class:`~aion_cli.api_results.Files` whose ``notes`` are
+        those ``aion export`` prints (a scene graph's: what a map does not store)."""
         from aion_cli.api_export import export_target, refuse_combination
         from aion_cli.api_make import warn_of
         from aion_cli.exports import cells_left_out, write_export
+        from aion_cli.formats.dsg_export import not_stored_note
 
         out = as_path(folder)
         format = export_target(format, out)
@@ -408,10 +411,14 @@ class Map(Generic[Report]):
             self._loaded, label, out, times, zone, format, ends, series=series is not None,
             force=force,
         )
-        shown = "format='ply' or Map.picture"
-        left_out = None if written.graph is None else cells_left_out(self._loaded, shown)
-        warn_of([left_out[0]] if left_out is not None and left_out[1] else [], [])
-        return written.files
+        files = Files(written.files)
+        if written.graph is not None and (graph := self._loaded.graph) is not None:
+            left_out = cells_left_out(self._loaded, "format='ply' or Map.picture")
+            said, most = ([], False) if left_out is None else ([left_out[0]], left_out[1])
+            notes = [not_stored_note(graph.layer_name)] + ([] if most else said)
+            warn_of(said if most else [], notes)
+            files.notes = tuple(notes)
+        return files
 
     @one_at_a_time
     def picture(

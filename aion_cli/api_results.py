@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from aion_cli.engine.time_text import Zone
     from aion_cli.routes import Route, Routes
 
@@ -249,3 +251,14 @@ def departure_rows(
         if seen is not None:
             row["hour_observed"] = seen
     return rows
+
+
+class Files(list["Path"]):
+    """The files :meth:`aion_cli.api.Map.export` wrote (a list of ``Path``, as before), with
+    the ``notes`` ``aion export`` prints beside them on stderr: for a scene graph
+    (``format="dsg"``) what of the source graph a map does not store, and the detections the
+    file leaves out when they are fewer than half (at least half is an
+    :class:`~aion_cli.errors.AionWarning`). A list, not a frozen value: it compares equal to
+    the list of the same paths."""
+
+    notes: tuple[str, ...] = ()

@@ -299,3 +299,26 @@ def test_the_api_warns_of_the_detections_a_graph_file_leaves_out(
     with warnings.catch_warnings():  # a map whose places hold its detections: no warning
         warnings.simplefilter("error", aion.AionWarning)
         aion.Map.load(office.map).export(tmp_path / "ok.json", historical=True, format="dsg")
+
+
+def test_the_api_gives_the_notes_the_cli_prints(sample_map: Path, tmp_path: Path) -> None:
+    """aion export --format dsg notes what a map does not store of the source graph (and the
+    few detections the file leaves out); Map.export(..., format="dsg") returned the file alone.
+    Its list of files now carries the same notes, in the API's words, as notes (no warning)."""
+    cli = run("export", sample_map, "--historical", "--format", "dsg", "-o", tmp_path / "c.json")
+    assert cli.exit_code == 0, cli.stderr
+    printed = " ".join(cli.stderr.split())
+    m = aion.Map.load(sample_map)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", aion.AionWarning)
+        files = m.export(tmp_path / "a.json", historical=True, format="dsg")
+    assert files == [tmp_path / "a.json"]  # still the list of the files written
+    assert len(files.notes) == 2, files.notes
+    stored, left_out = files.notes
+    assert stored.startswith("a map does not store a scene graph's objects")
+    # the sample's 2 of 3,636 detections on hash cells: a note, not a warning
+    assert left_out.startswith("under 1% of the map's detections (2 of 3,636)")
+    assert left_out.endswith("(format='ply' or Map.picture shows them)")
+    assert stored in printed
+    assert left_out.replace("format='ply' or Map.picture", "--format ply or png") in printed
+    assert m.export(tmp_path / "s.ply", historical=True).notes == ()  # a scene file: none
