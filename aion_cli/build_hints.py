@@ -8,6 +8,8 @@ fails; the words of what to change, one per cause, are this module's.
 
 from __future__ import annotations
 
+from aion_cli.number_text import counted
+
 __all__ = ["no_detection_hint"]
 
 
@@ -37,7 +39,8 @@ def _filter_hint(topics: list[str], dropped: dict[str, int], seen: dict[str, int
     if rest > 0:
         shown += f"{', ' if shown else ''}{rest:,} of other values"
     return (
-        f"the --detections-mapping's filter dropped {'all ' if alone else ''}{n:,} items"
+        f"the --detections-mapping's filter dropped {'all ' if alone and n > 1 else ''}"
+        f"{counted(n, 'item')}"
         + (f"; its field held {shown}" if shown else "")
         + "; list the values of the people in its equals (`aion info LOG --suggest-mapping "
         f"{topic}` shows the fields), or leave the filter out; "

@@ -24,6 +24,7 @@ from aion_cli.engine.detection_sketch import DetectionSketch
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, LogFormatError, MessageDecodeError
 from aion_cli.listing import first_few
+from aion_cli.number_text import counted
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 
 if TYPE_CHECKING:
@@ -167,7 +168,6 @@ class BuildReport:
         which a notebook would print whole, for every log): the map, the detections used of
         those read, from how many logs, the entries and windows, and how many notes and
         warnings (:attr:`notes`, :attr:`warnings`)."""
-        from aion_cli.number_text import counted
 
         return (
             f"<aion.BuildReport {self.output}: {self.detections_used:,} of "
@@ -303,13 +303,16 @@ def record_detections(
     topic_counts(report, feeders, used, mapper_drops, c.used)
     if c.stamp_fallbacks:
         report.notes.append(
-            f"{c.stamp_fallbacks:,} detections had a zero header stamp: their messages' "
-            "log times were used"
+            f"{counted(c.stamp_fallbacks, 'detection')} had a zero header stamp: "
+            + ("its message's log time was used" if c.stamp_fallbacks == 1
+               else "their messages' log times were used")
         )
     if c.log_times:
         report.notes.append(
-            f"{c.log_times:,} detections came from messages without a header (as mapped): "
-            "their messages' log times were used"
+            f"{counted(c.log_times, 'detection')} came from "
+            + ("a message without a header (as mapped): its log time was used"
+               if c.log_times == 1
+               else "messages without a header (as mapped): their messages' log times were used")
         )
     report.stamp_counts = dict(c.topics)
     report.warnings.extend(stamp_warnings(c.topics))

@@ -67,6 +67,7 @@ from aion_cli.merge_names import naming_map, shared_names
 from aion_cli.merge_report import MergedInput
 from aion_cli.merge_report import MergeReport as MergeReport  # docs/API.md names it here
 from aion_cli.merge_twins import check_same_recording
+from aion_cli.number_text import counted
 
 if TYPE_CHECKING:
     from aion_cli.build_report import ProgressSink
@@ -403,7 +404,8 @@ def _bind_target(
     before = len(merged.entries.node_rows())
     report.rebound = bind_to_graph(merged, target, t_ns)
     report.notes.append(
-        f"{report.rebound} hash cells bound to the {len(target.places)} places of "
+        f"{counted(report.rebound, 'hash cell')} bound to the "
+        f"{counted(len(target.places), 'place')} of "
         f"{report.graph_source} (its places taken as stable at the merge time; "
         f"{before} node entries before, {len(merged.entries.node_rows())} after)"
     )

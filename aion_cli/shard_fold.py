@@ -252,9 +252,10 @@ def learn_rest(
         if on_folded is not None:
             on_folded(task.index)
     if learnt:
+        verb, whose = ("was", "its graph") if learnt == 1 else ("were", "their graphs")
         folded.notes.append(
             f"the scene graph changed between shards: the last {learnt} of {total} shards "
-            "were learnt in sequence without waiting for the workers (their graphs would have "
+            f"{verb} learnt in sequence without waiting for the workers ({whose} would have "
             "changed too)"
         )
     folded.seconds += time.perf_counter() - begin

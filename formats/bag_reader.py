@@ -156,12 +156,7 @@ class BagReader(Reader):
             )
             if missing:
                 total = sum(info.connection_counts.values())
-                self._gaps.append(
-                    f"{self._file.name}: its index lists {total - missing:,} of the {total:,} "
-                    f"messages its chunk info gives the chunk at byte {info.pos} (a damaged "
-                    f"record length?): {missing:,} message{'' if missing == 1 else 's'} "
-                    "cannot be found and are not read"
-                )
+                self._gaps.append(unindexed_text(self._file.name, info.pos, total, missing))
 
     def _check_entry_times(self) -> None:
         """Repair index entries whose time lies outside their chunk info's range while most of
@@ -439,3 +434,16 @@ def _time_of(entry: Any) -> int:
 
 def _no_decompressor(data: bytes) -> bytes:
     raise caps.ChunkError("chunks are decompressed by BagReader._chunk_bytes")
+
+
+def unindexed_text(name: str, pos: int, total: int, missing: int) -> str:
+    """The warning of a chunk at byte ``pos`` whose index lists ``missing`` fewer of its
+    ``total`` messages than its chunk info counts (:meth:`BagReader._check_index`)."""
+    from aion_cli.number_text import counted
+
+    return (
+        f"{name}: its index lists {total - missing:,} of the {counted(total, 'message')} its "
+        f"chunk info gives the chunk at byte {pos} (a damaged record length?): "
+        f"{counted(missing, 'message')} cannot be found and {'is' if missing == 1 else 'are'} "
+        "not read"
+    )

@@ -30,6 +30,7 @@ from rosbags.rosbag1.reader import (
 
 from aion_cli.formats import limits as caps
 from aion_cli.formats.bag_reader import BagReader, _no_decompressor
+from aion_cli.number_text import counted
 
 _MAGIC_LENGTH = len(b"#ROSBAG V2.0\n")
 #: what a record that does not parse raises in rosbags' readers
@@ -101,7 +102,7 @@ def reindex(reader: BagReader, why: str) -> str:
     chunks = len(reader.chunk_infos)
     text = (
         f"{reader.name}: {why}; indexed in memory from its {chunks:,} chunk"
-        f"{'' if chunks == 1 else 's'}, as `rosbag reindex` would: {messages:,} messages"
+        f"{'' if chunks == 1 else 's'}, as `rosbag reindex` would: {counted(messages, 'message')}"
     )
     if skipped:
         text += _skipped_text(skipped, lost, connections)

@@ -28,6 +28,7 @@ import numpy as np
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _Source
 from aion_cli.formats.mcap_records import MAGIC
+from aion_cli.number_text import counted
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -123,13 +124,13 @@ class _McapLinearRead(_Source):
         if self._stop_offset is not None:
             self._warn(
                 f"{self.path.name}: truncated or corrupt MCAP: read stopped at byte "
-                f"{self._stop_offset} of {self._size} after {n} messages; "
+                f"{self._stop_offset} of {self._size} after {counted(n, 'message')}; "
                 "the rest of the file is ignored"
             )
         elif self._unclosed:
             self._warn(
                 f"{self.path.name}: truncated MCAP: the file ends at byte {self._size} after "
-                f"{n} messages, between two records, without the records that close a "
+                f"{counted(n, 'message')}, between two records, without the records that close a "
                 "recording (DataEnd, summary, footer): it was cut short (a recorder killed, a "
                 "copy made while recording); what it holds is read, anything recorded after "
                 "it is not in the file"

@@ -38,6 +38,7 @@ from aion_cli.formats.log_source import (
 from aion_cli.formats.mcap_indexed import _McapIndexed
 from aion_cli.formats.mcap_linear import _MCAP_MAGIC, _MCAP_READ_ERRORS, _why
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype, raw_message
+from aion_cli.number_text import counted
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -250,7 +251,7 @@ class _McapSource(_McapIndexed):
             first = check.problems[0] + (f" (and {more} more)" if more > 0 else "")
             self._warn(
                 f"{self.path.name}: its summary disagrees with the data: {first}; aion read the "
-                f"chunks themselves instead (linear scan): {total:,} messages"
+                f"chunks themselves instead (linear scan): {counted(total, 'message')}"
             )
         elif total != stats.message_count:
             held = "its data section holds" if check.bare_messages else "its chunks hold"

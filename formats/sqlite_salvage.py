@@ -134,7 +134,9 @@ def salvage_to_temp(
         return tmp, copy, _damaged_text(name, read, gaps, stop or why)
     warning = (
         f"{name.name}: the sqlite3 storage file is cut short, {cut.describe()}: its first "
-        f"{read:,} messages are read, those after them are lost"
+        + ("message is read, those after it" if read == 1 else f"{read:,} messages are read, "
+           "those after them")
+        + " are lost"
         + (f" (SQLite: {stop})" if stop else "")
     )
     return tmp, copy, warning
@@ -156,24 +158,28 @@ def _whole_pages(path: Path, cut: CutShort, target: Path) -> Path:
 
 def _damaged_text(name: Path, read: int, gaps: Gaps, why: str) -> str:
     """The warning of a file salvaged past damage: the messages read, and the rows lost."""
+    from aion_cli.number_text import counted
+
     tail = [a for a, b in gaps if b == _ON]  # the damage runs to the end: no count
     gaps = [(a, b) for a, b in gaps if b != _ON]
     lost = sum(b - a + 1 for a, b in gaps)
     runs = ", ".join(f"{a:,}" if a == b else f"{a:,} to {b:,}" for a, b in gaps[:5])
     more = f" and {len(gaps) - 5:,} more runs" if len(gaps) > 5 else ""
+    read_text = f"{counted(read, 'message')} {'is' if read == 1 else 'are'} read"
     if tail:
-        counted = f"{lost:,} cannot be (ids {runs}{more}), " if gaps else ""
+        cannot = f"{lost:,} cannot be (ids {runs}{more}), " if gaps else ""
         return (
             f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}): "
-            f"{read:,} messages are read, {counted}none from id {tail[0]:,} on can be read: "
-            "they are lost"
+            f"{read_text}, {cannot}none from id {tail[0]:,} on can be read: they are lost"
         )
     return (
         f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}): "
-        f"{read:,} messages are read, {lost:,} cannot be (ids {runs}{more}) and are lost"
+        f"{read_text}, {lost:,} cannot be (ids {runs}{more}) and {'is' if lost == 1 else 'are'} "
+        "lost"
         if gaps
         else f"{name.name}: the sqlite3 storage file is damaged inside (SQLite: {why}), not in "
-        f"its messages: all {read:,} of them are read"
+        + ("its messages: its one message is read" if read == 1
+           else f"its messages: all {read:,} of them are read")
     )
 
 

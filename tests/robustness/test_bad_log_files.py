@@ -81,7 +81,7 @@ def test_truncated_mcap_builds_from_the_readable_part_and_says_where_it_stopped(
     warning = next(n for n in report["warnings"] if "truncated or corrupt MCAP" in n)
     stopped = int(warning.split("read stopped at byte ")[1].split()[0])
     assert 0 < stopped <= len(data) * 6 // 10
-    assert f"after {read} messages" in warning
+    assert f"after {read:,} messages" in warning
     assert map_arrays(tmp_path / "cut.aion")  # a complete, checksummed map
     assert report["time_span"]["end_ns"] == T0 + (read - 1) * S  # exactly the first `read` s
     quiet = run("build", cut, "-o", tmp_path / "quiet.aion", "-q")
@@ -104,7 +104,7 @@ def test_an_mcap_cut_between_two_chunks_is_read_with_a_warning(
     report = build_json(cut, "-o", tmp_path / "cut.aion")
     assert report["detections"]["read"] == before  # the whole chunks before the cut
     warning = next(w for w in report["warnings"] if "truncated MCAP" in w)
-    assert f"ends at byte {cut_at} after {before} messages" in warning
+    assert f"ends at byte {cut_at} after {before:,} messages" in warning
     info = run("info", cut, "--format", "json")
     assert warning in json.loads(info.stdout)["warnings"]
     whole = build_json(spread_log, "-o", tmp_path / "whole.aion")
