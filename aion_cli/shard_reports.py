@@ -232,7 +232,8 @@ def built_twice_note(causes: list[str], shards: int) -> str:
         cause if len(counts) == 1 else f"{cause} ({n})" for cause, n in counts.items()
     )
     return (
-        f"{len(causes)} of {shards} shards were built twice (in a worker, then in sequence) "
+        f"{len(causes)} of {shards} shards {'was' if len(causes) == 1 else 'were'} built twice "
+        "(in a worker, then in sequence) "
         f"because of {why}, which a shard built apart cannot know; for logs whose scene graph "
         "changes as they go (a live Hydra stream) --workers 1 is faster (docs/SCALING.md)"
     )

@@ -128,7 +128,7 @@ def test_the_note_names_the_reason_the_join_was_refused(logs: object, cause: str
     assert blocker.cause == cause
     note = built_twice_note([blocker.cause], 3)
     assert note.startswith(
-        f"1 of 3 shards were built twice (in a worker, then in sequence) because of {cause}, "
+        f"1 of 3 shards was built twice (in a worker, then in sequence) because of {cause}, "
     ), note
     assert HYDRA_BLAME not in note
     assert "--workers 1 is faster" in note

@@ -80,3 +80,13 @@ def test_an_mcap_cut_between_two_records(tmp_path: Path, n: int, said: str) -> N
         assert logs.total() == n
         (warning,) = [w for w in logs.warnings if "truncated MCAP" in w]
     assert f"ends at byte {path.stat().st_size} {said} between two records" in warning
+
+
+@pytest.mark.parametrize(
+    ("n", "said"), [(1, "1 of 3 shards was built"), (2, "2 of 3 shards were built")]
+)
+def test_shards_a_parallel_build_built_twice(n: int, said: str) -> None:
+    from aion_cli.shard_reports import built_twice_note
+
+    note = built_twice_note(["places that drifted"] * n, 3)
+    assert note.startswith(f"{said} twice (in a worker, then in sequence) because of places that")

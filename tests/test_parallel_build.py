@@ -194,7 +194,7 @@ def test_shards_whose_scene_graph_changed_are_named_with_a_hint(
     assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
     hints = [n for n in notes if "built twice" in n]
     assert hints == [
-        "1 of 2 shards were built twice (in a worker, then in sequence) because of cells bound "
+        "1 of 2 shards was built twice (in a worker, then in sequence) because of cells bound "
         "to other places than the map before them, which a shard built apart cannot know; for "
         "logs whose scene graph changes as they go (a live Hydra stream) --workers 1 is faster "
         "(docs/SCALING.md)"
@@ -260,7 +260,7 @@ def test_after_a_graph_change_the_rest_is_learnt_in_sequence_without_the_workers
     report = _build(logs, par, 2)
     assert not mark.exists()
     _assert_the_rest_was_learnt_in_sequence(seq, par, report)
-    assert [n for n in report.notes if n.startswith("1 of 3 shards were built twice")]  # type: ignore[attr-defined]
+    assert [n for n in report.notes if n.startswith("1 of 3 shards was built twice")]  # type: ignore[attr-defined]
 
 
 def _assert_the_rest_was_learnt_in_sequence(seq: Path, par: Path, report: Any) -> None:
@@ -270,8 +270,8 @@ def _assert_the_rest_was_learnt_in_sequence(seq: Path, par: Path, report: Any) -
     notes = report.notes
     assert [n for n in notes if "session1.mcap was learnt in sequence" in n]
     assert (
-        "the scene graph changed between shards: the last 1 of 3 shards were learnt in "
-        "sequence without waiting for the workers (their graphs would have changed too)"
+        "the scene graph changed between shards: the last 1 of 3 shards was learnt in "
+        "sequence without waiting for the workers (its graph would have changed too)"
     ) in notes
     assert [row["shard"] for row in report.workers] == [0, 1]
 
