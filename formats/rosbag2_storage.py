@@ -263,8 +263,9 @@ def _nested(mapping: object, *keys: str) -> object:
     return mapping
 
 
-def metadata_figures(folder: Path) -> MetadataFigures | None:
-    """What ``folder/metadata.yaml`` states, or None when it cannot be read as YAML."""
+def _bagfile_information(folder: Path) -> dict[Any, Any] | None:
+    """``rosbag2_bagfile_information`` of ``folder/metadata.yaml``, or None when the file
+    cannot be read as YAML or holds no such mapping (the reader says why elsewhere)."""
     from ruamel.yaml import YAML
 
     try:
@@ -272,7 +273,13 @@ def metadata_figures(folder: Path) -> MetadataFigures | None:
     except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
         return None
     info = _nested(data, "rosbag2_bagfile_information")
-    if not isinstance(info, dict):
+    return info if isinstance(info, dict) else None
+
+
+def metadata_figures(folder: Path) -> MetadataFigures | None:
+    """What ``folder/metadata.yaml`` states, or None when it cannot be read as YAML."""
+    info = _bagfile_information(folder)
+    if info is None:
         return None
     counts: dict[tuple[str, str], int] = {}
     for entry in info.get("topics_with_message_count") or []:
@@ -294,14 +301,8 @@ def metadata_type_error(folder: Path) -> str | None:
     a topic), the start time or the duration that is no integer, a topic name or type that is
     no string. rosbags takes any YAML value there, and a sum over the counts failed later
     (``int += str``). None when all are, or the yaml cannot be read (rosbags says why)."""
-    from ruamel.yaml import YAML
-
-    try:
-        data = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
-    except Exception:  # OSError, YAML and decoding errors: the reader says why elsewhere
-        return None
-    info = _nested(data, "rosbag2_bagfile_information")
-    if not isinstance(info, dict):
+    info = _bagfile_information(folder)
+    if info is None:
         return None
     values: list[tuple[str, object, type]] = [
         ("message_count", info.get("message_count"), int),

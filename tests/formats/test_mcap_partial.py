@@ -29,14 +29,17 @@ T0 = 1_700_006_400 * S
 GRAPH_BYTES = 6_000
 
 
-def _write(path: Path, compression: str, chunk_size: int, seconds: int = 12) -> list[int]:
+def write_graph_log(
+    path: Path, compression: str, chunk_size: int, seconds: int = 12, seed: int = 7
+) -> dict[int, bytes]:
     """Tracks at 10 Hz (60-byte payloads) and a graph every second (6,000 bytes, after the
-    tracks of its second); returns the graph times. Payloads are distinct per message."""
+    tracks of its second), every payload distinct; returns the graphs' payloads by log time
+    (also used by ``test_mcap_views``)."""
     from mcap.writer import CompressionType, Writer
 
     kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "": CompressionType.NONE}
-    rng = np.random.default_rng(7)
-    graphs = []
+    rng = np.random.default_rng(seed)
+    graphs = {}
     with path.open("wb") as f:
         w = Writer(f, compression=kinds[compression], chunk_size=chunk_size)
         w.start(profile="ros2", library="test")
@@ -49,10 +52,15 @@ def _write(path: Path, compression: str, chunk_size: int, seconds: int = 12) -> 
                 t = T0 + second * S + tenth * S // 10
                 w.add_message(c_tracks, t, rng.bytes(60), t)
             t = T0 + second * S + 950_000_000
-            w.add_message(c_dsg, t, rng.bytes(GRAPH_BYTES), t)
-            graphs.append(t)
+            graphs[t] = rng.bytes(GRAPH_BYTES)
+            w.add_message(c_dsg, t, graphs[t], t)
         w.finish()
     return graphs
+
+
+def _write(path: Path, compression: str, chunk_size: int, seconds: int = 12) -> list[int]:
+    """The log of :func:`write_graph_log`; returns the graph times."""
+    return list(write_graph_log(path, compression, chunk_size, seconds))
 
 
 def _stream(path: Path, hint: UnreadHint | None = None) -> list[tuple[str, int, bytes]]:

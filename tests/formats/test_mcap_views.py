@@ -18,36 +18,13 @@ import pytest
 from aion_cli.formats import mcap_records
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.raw import Unread, UnreadHint
-
-S = 1_000_000_000
-T0 = 1_700_006_400 * S
-GRAPH_BYTES = 6_000
+from tests.formats.test_mcap_partial import GRAPH_BYTES, write_graph_log
 
 
 def _write(path: Path, compression: str, chunk_size: int, seconds: int = 8) -> dict[int, bytes]:
-    """Tracks at 10 Hz (60 bytes) and a graph each second (6,000 bytes, after the tracks of its
-    second), every payload distinct; returns the graphs' payloads by log time."""
-    from mcap.writer import CompressionType, Writer
-
-    kinds = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "": CompressionType.NONE}
-    rng = np.random.default_rng(11)
-    graphs = {}
-    with path.open("wb") as f:
-        w = Writer(f, compression=kinds[compression], chunk_size=chunk_size)
-        w.start(profile="ros2", library="test")
-        tracks = w.register_schema("spencer_tracking_msgs/msg/TrackedPersons", "ros2msg", b"")
-        dsg = w.register_schema("hydra_msgs/msg/DsgUpdate", "ros2msg", b"")
-        c_tracks = w.register_channel("/tracks", "cdr", tracks)
-        c_dsg = w.register_channel("/dsg", "cdr", dsg)
-        for second in range(seconds):
-            for tenth in range(10):
-                t = T0 + second * S + tenth * S // 10
-                w.add_message(c_tracks, t, rng.bytes(60), t)
-            t = T0 + second * S + 950_000_000
-            graphs[t] = rng.bytes(GRAPH_BYTES)
-            w.add_message(c_dsg, t, graphs[t], t)
-        w.finish()
-    return graphs
+    """Tracks at 10 Hz and a graph each second (:func:`write_graph_log`); returns the graphs'
+    payloads by log time."""
+    return write_graph_log(path, compression, chunk_size, seconds, seed=11)
 
 
 def _stream(path: Path, hint: UnreadHint | None) -> list[Any]:
