@@ -34,6 +34,7 @@ from aion_cli.detection_feed import (
     decoded_chunks,
 )
 from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.detection_sketch import SketchFeed
 from aion_cli.engine.heading_hold import HeadingHold
 from aion_cli.engine.state import DROP_REASONS
 from aion_cli.engine.types import F64, I64, DetectionBatch, GraphSnapshot
@@ -78,6 +79,7 @@ class StreamStep:
     _adapters: dict[tuple[str, str, str], Any]
     _factory: Any
     _tally: MapperTally
+    _sketch: SketchFeed
     #: what became of the output when no detection was usable (None: the build's own words,
     #: "no map was written"; a held-out reading writes nothing to begin with)
     unusable_outcome: str | None = None
@@ -179,6 +181,7 @@ class StreamStep:
             sorted(plan.names("detections")),
         )
         self._tally = MapperTally(len(feeders.topics))
+        self._sketch = SketchFeed(self.report.sketch)  # flushed when the stream ends
         graph_topics = plan.names("graph")
         topics = plan.names("detections") | graph_topics
         total = logset.total(topics) if self._part_total is None else self._part_total
@@ -215,6 +218,7 @@ class StreamStep:
                     self._take_graph(mapper, snapshot, use_agents)
                 self.progress.advance(1)
         self._leave(mapper, hold, behind, *hold.release(), use_agents=use_agents)
+        self._sketch.flush()
         feeders.count_settled(hold.settled)
         self.graphs.check_skips(stop_if_none=not self.shard)
         self.report.graph_pins = self.graphs.pins
@@ -286,7 +290,7 @@ class StreamStep:
         if first:
             self.report.first_detection_ns = int(batch.t_ns.min())
         self._check_after_map(batch.t_ns, "detection", first, batch.xyz)
-        self.report.sketch.add(batch.t_ns, batch.xyz)
+        self._sketch.add(batch.t_ns, batch.xyz)
         codes = np.empty(len(batch), np.int8)
         mapper.add_detections(batch, codes)
         self._check_clocks(mapper, batch.t_ns, codes)
