@@ -283,9 +283,10 @@ def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackD
     metres) are read from the 4- and 6-column files. The detections have no ids: they are
     linked into tracks (:func:`aion_cli.engine.tracking.link_tracks` with ``linker``), which
     gives the track ids, headings and speeds. The 2017-05-31 CSV's own heading column is kept
-    as ``detector_heading`` but not used: on that file it points opposite (π off) to the
-    direction the linked tracks move for most walking detections, so it is not a walking
-    direction in the map's convention.
+    as ``detector_heading`` but not used: on that file it is about 172° off the direction the
+    linked tracks move for most walking detections, so it is not a walking direction in the
+    positions' frame (the file's positions are the corridor turned by 171.4° against the other
+    days' files, its headings are in theirs: ``docs/EVALUATION.md``).
 
     Observed spans: the declared header span ``[t_start, t_end)`` (used as declared, with a
     note when it reaches more than a day beyond the detections, as 2017-06-09.txt's does),
