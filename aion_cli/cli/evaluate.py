@@ -251,15 +251,15 @@ LINCOLN_ACTIVITY_COLUMNS = (
               help="Training days (UTC dates, comma-separated) [default: 2017-05-24, -25, "
               "-26, -31].")
 @click.option("--test", "test_day", metavar="DAY", help="The test day [default: 2017-06-09].")
+@click.option("--align-05-31", "align", is_flag=True,
+              help="Put 2017-05-31 (a file of the corridor in another frame) into the other "
+              "training days' frame first; JSON data.DAY.aligned: angle_deg, shift_m, mirror, "
+              "onto, overlap_before, overlap_after [default: the files as recorded].")
 @format_option(("table", "json"))
 @quiet_option
 def lincoln(
-    data_dir: Path | None,
-    radius: float,
-    config_path: Path | None,
-    train_days: str | None,
-    test_day: str | None,
-    fmt: str,
+    data_dir: Path | None, radius: float, config_path: Path | None, train_days: str | None,
+    test_day: str | None, align: bool, fmt: str,
 ) -> None:
     """Forecast a real multi-day corridor: train on four days of May 2017, predict June 9 —
     heading NLL and hourly activity (Spearman, Poisson deviance, MAE) of aion against static,
@@ -281,7 +281,7 @@ def lincoln(
         train = tuple(d.strip() for d in train_days.split(",") if d.strip())
     result = run_lincoln(
         _existing_dir(_data(data_dir, "lincoln"), "Lincoln data"), config, radius, progress=note,
-        train_days=train, test_day=TEST_DAY if test_day is None else _day(test_day),
+        train_days=train, test_day=TEST_DAY if test_day is None else _day(test_day), align=align,
     )
     for line in result.warnings:  # a user mistake: shown with -q and --format json too
         warn(line)

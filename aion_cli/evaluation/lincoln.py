@@ -63,6 +63,10 @@ from aion_cli.evaluation.metrics import hourly_activity
 
 TRAIN_DAYS = ("2017-05-24", "2017-05-25", "2017-05-26", "2017-05-31")
 TEST_DAY = "2017-06-09"
+ALIGN_DAY = "2017-05-31"
+"""The day whose file holds the corridor in another frame (turned by about 171°,
+docs/EVALUATION.md); ``run_lincoln(align=True)`` puts it into the split's other training
+days' frame."""
 ZONE = "Europe/London"
 SESSION_GAP_NS = 3_600 * 1_000_000_000
 DAY_NS = 86_400 * 1_000_000_000
@@ -143,6 +147,29 @@ def load_days(data_dir: Path) -> dict[str, DayData]:
     return days
 
 
+def align_day(days: dict[str, DayData], name: str, onto: list[str]) -> dict[str, Any] | None:
+    """Day ``name``'s detections (positions and headings) put into the frame of the days
+    ``onto`` by the rigid transform that best overlays their occupancy
+    (:func:`aion_cli.engine.align.align_occupancy`), in place; what was found (JSON
+    ``aligned``), or None without a day to align onto."""
+    from aion_cli.engine.align import align_occupancy
+
+    if not onto:
+        return None
+    day = days[name]
+    fixed = np.concatenate([days[d].batch.xyz[:, :2] for d in onto])
+    found = align_occupancy(day.batch.xyz, fixed)
+    b = day.batch
+    moved = DetectionBatch(
+        b.t_ns, found.apply(b.xyz), found.apply_heading(b.heading), b.speed, b.track_id
+    )
+    days[name] = DayData(name, moved, day.spans, day.source)
+    return {"angle_deg": round(float(np.rad2deg(found.angle)), 2),
+            "shift_m": [round(v, 3) for v in found.shift], "mirror": found.mirror,
+            "onto": list(onto), "overlap_before": round(found.overlap_before, 3),
+            "overlap_after": round(found.overlap_after, 3)}
+
+
 def observed_windows(spans: list[tuple[int, int]], window_ns: int) -> np.ndarray:
     """Windows overlapping the spans (sorted)."""
     parts = [np.arange(a // window_ns, -((-b) // window_ns)) for a, b in spans]
@@ -215,12 +242,15 @@ def run_lincoln(
     progress: Callable[[str], None] | None = None,
     train_days: tuple[str, ...] = TRAIN_DAYS,
     test_day: str = TEST_DAY,
+    align: bool = False,
 ) -> LincolnResult:
     """Train on ``train_days`` (default: the four May days), forecast ``test_day`` (June 9);
     see the module docstring. Other splits of the recorded days check that a result is not
     one split's luck. :class:`InputError` for a day the files do not hold, a test day among
     the training days, or no training day; a training day after the test day is a warning
-    (``LincolnResult.warnings``)."""
+    (``LincolnResult.warnings``). ``align``: 2017-05-31, if in the split, is first put into
+    the frame of the split's other training days (:func:`align_day`; off by default: the
+    protocol reads the files as recorded)."""
     radius = association_radius(radius)
     cfg = config or ModelConfig(timezone=ZONE)
     say = progress or (lambda _msg: None)
@@ -237,6 +267,11 @@ def run_lincoln(
             "the Lincoln evaluation needs training days and a test day that is not one of them",
             hint=f"the files hold {recorded}",
         )
+    aligned = None
+    if align and ALIGN_DAY in (*train_days, test_day):
+        say(f"aligning {ALIGN_DAY} to the other training days' frame")
+        onto = [d for d in sorted(set(train_days)) if d != ALIGN_DAY]
+        aligned = align_day(days, ALIGN_DAY, onto)
     train = [days[d] for d in sorted(set(train_days))]
     test = days[test_day]
     window_ns = round(cfg.window_s * 1e9)
@@ -260,6 +295,8 @@ def run_lincoln(
             sum(b - a for a, b in d.spans) / 3.6e12, 2)}
         for d in (*train, test)
     }
+    if aligned is not None:
+        result.data[ALIGN_DAY]["aligned"] = aligned
     say(f"building aion from the {len(train)} training days (convert + build)")
     with tempfile.TemporaryDirectory(prefix="aion-lincoln-") as tmp:
         state = _build_aion(train, cfg, Path(tmp))
