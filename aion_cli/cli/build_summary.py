@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from aion_cli.cli.console import console, print_table, warn_each
-from aion_cli.cli.output import counted, human_size, markup_safe
-from aion_cli.number_text import WINDOWS_OBSERVED, span_text
+from aion_cli.cli.output import human_size, markup_safe
+from aion_cli.number_text import WINDOWS_OBSERVED, counted, span_text
 
 __all__ = ["print_summary", "print_warnings", "span_text"]
 

@@ -16,8 +16,9 @@ from aion_cli.cli.convert_checks import (
     check_tracks_input,
     container_for,
 )
-from aion_cli.cli.output import AionCommand, AnyCase, counted, markup_safe
+from aion_cli.cli.output import AionCommand, AnyCase, markup_safe
 from aion_cli.errors import path_word
+from aion_cli.number_text import counted
 
 EPILOG = """\b
 Examples:

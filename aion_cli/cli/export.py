@@ -19,7 +19,8 @@ from aion_cli.cli.common import (
     tz_option,
 )
 from aion_cli.cli.completion import complete_nodes
-from aion_cli.cli.output import AionCommand, counted
+from aion_cli.cli.output import AionCommand
+from aion_cli.number_text import counted
 
 if TYPE_CHECKING:
     from aion_cli.export_stale import StaleFrames

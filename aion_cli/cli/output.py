@@ -252,11 +252,6 @@ def emit_chunks(chunks: Iterable[str], *, nl: bool) -> None:
         click.echo("")
 
 
-def counted(n: int, noun: str) -> str:
-    """``n`` with ``noun``, plural unless 1: ``1 track``, ``2,000 tracks``."""
-    return f"{n:,} {noun}{'' if n == 1 else 's'}"
-
-
 def human_size(n: int) -> str:
     """Bytes as B / KiB / MiB / GiB."""
     value = float(n)

@@ -142,7 +142,7 @@ def _event_counts(r: SceneResult) -> str:
 
     meta = json.loads(r.truth_json.read_text())
     c = meta["event_counts"]
-    from aion_cli.cli.output import counted
+    from aion_cli.number_text import counted
 
     return (
         f"{counted(meta['loop_closures'], 'loop closure')} ({counted(c['move'], 'move')}, "
