@@ -14,25 +14,18 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
 from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, NODE, EntryStore
-from aion_cli.engine.graph_arrays import graph_from_arrays, graph_to_arrays
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.nodes import NodeTable, Redirects
 from aion_cli.engine.observation import ObservationSource
 from aion_cli.engine.routing import RouteTable
-from aion_cli.engine.state_checks import (
-    STATE_VERSION,
-    check_loaded,
-    check_member_shapes,
-    check_ownership,
-    parse_state_meta,
-)
+from aion_cli.engine.state_arrays import map_state_from_arrays, map_state_to_arrays
 from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
 from aion_cli.engine.temporal.accumulators import TemporalState
@@ -45,7 +38,7 @@ from aion_cli.engine.temporal.pending import PendingDay
 from aion_cli.engine.temporal.provisional import ProvisionalScores
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_centre_ns, window_ns
-from aion_cli.errors import MapCorruptError, PartMapError
+from aion_cli.errors import PartMapError
 
 DROP_REASONS = ("nan", "out_of_range", "before_window")
 _StateKey = tuple[int, int, int | None, int, int]
@@ -367,46 +360,9 @@ class MapState:
 
     # -- persistence ------------------------------------------------------------------------
     def to_arrays(self, lazy: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph).
-
-        The temporal members are gathered block by block when written (``lazy`` is kept for
-        callers; every large member is streamed), so writing needs no second copy of the
-        largest part of the state."""
-        del lazy
-        order = self.entries.canonical_order()
-        arrays: dict[str, Any] = self.entries.to_arrays(order)
-        arrays.update(self.temporal.to_arrays("temporal_", order))
-        position = np.full(self.entries.capacity, -1, np.int64)
-        position[order] = np.arange(order.size)
-        if self.deferred is None:  # a part map forecasts nothing
-            arrays.update(self.forecast_components(order).to_arrays(self.params.n_periods))
-            provisional = self.provisional_scores()
-            if provisional is not None:
-                arrays.update(provisional.to_arrays(position))
-        pending_arrays, pending_day = self.pending.to_arrays("pending_", position)
-        arrays.update(pending_arrays)
-        deferred_meta = None
-        if self.deferred is not None:  # a part map (aion build --part): its held days
-            held_arrays, deferred_meta = self.deferred.to_arrays(position)
-            arrays.update(held_arrays)
-        arrays.update(self.nodes.to_arrays())
-        arrays.update(self.redirects.to_arrays())
-        arrays.update(self.observation.to_arrays())
-        graph_arrays, graph_meta = graph_to_arrays(self.graph)
-        arrays.update(graph_arrays)
-        meta: dict[str, Any] = {
-            "state_version": STATE_VERSION,
-            "config": self.config.to_dict(),
-            "open_window": self.open_window,
-            "log_time_ns": self.log_time_ns,
-            "accepted": int(self.accepted),
-            "dropped": {k: int(v) for k, v in self.dropped.items()},
-            "graph": graph_meta,
-            "pending_day": pending_day,
-        }
-        if deferred_meta is not None:
-            meta["deferred"] = deferred_meta
-        return arrays, meta
+        """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph):
+        :func:`~aion_cli.engine.state_arrays.map_state_to_arrays`."""
+        return map_state_to_arrays(self, lazy)
 
     @classmethod
     def from_arrays(
@@ -417,74 +373,9 @@ class MapState:
         copy: bool = True,
         forecast_only: bool = False,
     ) -> MapState:
-        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input.
-
-        ``forecast_only`` (a query's state, not ``writable``): when the map stores its FreMEn
-        components, the per-entry Fourier sums are not read (most of a map's bytes); the
-        forecasts are the same.
-
-        ``arrays`` may be any mapping (e.g. a map file's lazily read members). ``copy=False``:
-        the arrays are fresh (just read from a file) and the state may keep them instead of
-        copying. A state that is not ``writable`` (a query's) keeps its temporal rows as
-        stored: no room is reserved for new entries (``EntryStore`` capacity), which would
-        copy every accumulator once more."""
-        head = parse_state_meta(meta)
-        config = head.config
-        # the components' readers only look members up by name: any mapping will do
-        arrays = cast(dict[str, np.ndarray], arrays)
-        check_member_shapes(arrays)  # what the components' readers index without checking
-        entries = EntryStore.from_arrays(arrays, config.bins, adopt=not writable and not copy)
-        params = TemporalParams.from_config(config)
-        components = None
-        if forecast_only and not writable and meta.get("deferred") is None:
-            components = fremen_components.FremenComponents.from_arrays(arrays, entries.n, params)
-        temporal = TemporalState.from_arrays(
-            arrays,
-            "temporal_",
-            entries.n,
-            params.values,
-            params.n_periods,
-            params.n_profile,
-            len(params.flow),
-            len(params.direction),
-            copy=copy,
-            fourier=components is None,
-        )
-        if writable:
-            temporal.resize(entries.capacity)
-        pending = PendingDay.from_arrays(
-            arrays, "pending_", head.pending_day, params.values, entries.n
-        )
-        deferred = None
-        if meta.get("deferred") is not None:
-            deferred = DeferredDays.from_arrays(arrays, meta["deferred"], params.values, entries.n)
-        try:
-            state = cls(
-                config=config,
-                entries=entries,
-                temporal=temporal,
-                pending=pending,
-                nodes=NodeTable.from_arrays(arrays),
-                redirects=Redirects.from_arrays(arrays),
-                observation=ObservationSource.from_arrays(arrays),
-                graph=graph_from_arrays(arrays, head.graph),
-                open_window=head.open_window,
-                log_time_ns=head.log_time_ns,
-                accepted=head.accepted,
-                dropped={**dict.fromkeys(DROP_REASONS, 0), **head.dropped},
-                writable=writable,
-                deferred=deferred,
-                components=components,
-            )
-        except (KeyError, ValueError) as exc:
-            raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
-        provisional = ProvisionalScores.from_arrays(arrays, entries.n, params)
-        if provisional is not None and state.pending and deferred is None:
-            state._provisional = (state._view_key(), provisional)
-        check_ownership(state)
-        check_loaded(state, arrays)
-        state.rebuild_routes()
-        return state
+        """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input
+        (:func:`~aion_cli.engine.state_arrays.map_state_from_arrays`)."""
+        return map_state_from_arrays(cls, arrays, meta, writable, copy, forecast_only)
 
 
 def merge_states(a: MapState, b: MapState) -> MapState:
