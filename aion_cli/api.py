@@ -396,8 +396,9 @@ class Map(Generic[Report]):
         those ``aion export`` prints (a scene graph's: what a map does not store)."""
         from aion_cli.api_export import export_target, refuse_combination
         from aion_cli.api_make import warn_of
-        from aion_cli.exports import cells_left_out, write_export
+        from aion_cli.exports import write_export
         from aion_cli.formats.dsg_export import not_stored_note
+        from aion_cli.graph_export import cells_left_out
 
         out = as_path(folder)
         format = export_target(format, out)

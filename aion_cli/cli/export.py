@@ -153,14 +153,9 @@ def command(
     from aion_cli.cli.console import console, note, progress, warn
     from aion_cli.cli.plan import snapped_text
     from aion_cli.errors import InputError
-    from aion_cli.exports import (
-        cells_left_out,
-        export_format,
-        path_ends,
-        scene_file,
-        write_export,
-    )
+    from aion_cli.exports import export_format, path_ends, scene_file, write_export
     from aion_cli.formats.dsg_export import not_stored_note
+    from aion_cli.graph_export import cells_left_out
 
     modes = sum([time_text is not None, historical, t_from is not None or t_to is not None])
     if modes > 1:

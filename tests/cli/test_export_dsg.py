@@ -260,7 +260,7 @@ def test_the_left_out_share_is_never_rounded_to_none_or_all(
 
     import numpy as np
 
-    from aion_cli.exports import cells_left_out
+    from aion_cli.graph_export import cells_left_out
 
     class Entries:
         counts = np.array([[on_cells, 0.0], [on_nodes, 0.0]])
