@@ -23,7 +23,7 @@ from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import _MESSAGE_ENCODINGS, LogFile, _Source, _Topic, _Unpacked
 from aion_cli.formats.mcap_source import _open_mcap
 from aion_cli.formats.raw import RawMessage, UnreadHint, normalize_msgtype
-from aion_cli.formats.rosbags_source import _storage_messages, _wanted_types
+from aion_cli.formats.rosbag2_messages import _storage_messages, _wanted_types
 from aion_cli.formats.sqlite_salvage import (
     DamagedStorageError,
     cut_short,

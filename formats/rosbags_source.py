@@ -3,7 +3,7 @@
 
 ROS 1 bags go through :class:`formats.bag_reader.BagReader` (rosbags' reader with aion's size
 caps), rosbag2 folders through rosbags' folder reader, their storage files matched to the
-folder's topics by topic and type, not by QoS (:func:`_storage_messages`, which the in-memory
+folder's topics by topic and type, not by QoS (:mod:`formats.rosbag2_messages`, which the in-memory
 reindexed sqlite3 source of :mod:`formats.rosbag2_reindex` reads through too). Counts and time
 ranges come from the storage files; :func:`formats.rosbag2_storage.metadata_warning` says where
 metadata.yaml disagrees with them. A rosbag2 folder with uncompressed or file-compressed mcap
@@ -13,10 +13,8 @@ which files).
 
 from __future__ import annotations
 
-import heapq
 from collections import Counter
 from collections.abc import Iterator
-from operator import attrgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -27,22 +25,18 @@ from aion_cli.formats import clock_steps, recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_source import (
     _MESSAGE_ENCODINGS,
-    _ZSTD_MAGIC,
     LogFile,
     _Source,
     _Topic,
-    _unzstd,
 )
 from aion_cli.formats.raw import Encoding, RawMessage, UnreadHint, normalize_msgtype
+from aion_cli.formats.rosbag2_messages import _storage_messages, _storage_topic, _wanted_types
 from aion_cli.formats.rosbag2_storage import metadata_warning
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
     from aion_cli.formats.recorded import Windows
-    from aion_cli.formats.rosbag2_reindex import (
-        _ReindexedSqliteSource,  # annotations only: no cycle
-    )
     from aion_cli.formats.stream_times import StreamTimes
 
 
@@ -346,115 +340,6 @@ class _RosbagsSource(_Source):
 
     def close(self) -> None:
         self._reader.close()
-
-
-def _storage_topic(conn: Any, topics: dict[tuple[str, str], _Topic]) -> _Topic:
-    """A topic as a storage file keeps it (its type and definition), for a topic whose type
-    metadata.yaml names otherwise; its serialization as metadata.yaml gives it (CDR else)."""
-    named = next((t for (topic, _), t in topics.items() if topic == conn.topic), None)
-    definition = conn.msgdef.data if conn.msgdef is not None else ""
-    idl = conn.msgdef is not None and conn.msgdef.format.name == "IDL"
-    encoding: Encoding = named.encoding if named is not None else "cdr"
-    return _Topic(conn.topic, normalize_msgtype(conn.msgtype), encoding, definition or "", idl)
-
-
-def _wanted_types(
-    topics: dict[tuple[str, str], _Topic], names: set[str] | None
-) -> dict[tuple[str, str], tuple[str, str, Encoding]]:
-    """``(topic, msgtype) -> (topic, msgtype, encoding)`` of the source's topics on ``names``
-    (all when None)."""
-    return {
-        key: (info.topic, info.msgtype, info.encoding)
-        for key, info in topics.items()
-        if names is None or info.topic in names
-    }
-
-
-def _storage_messages(
-    source: _RosbagsSource | _ReindexedSqliteSource,
-    storages: list[Any],
-    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
-    unzstd: bool | None,
-    between: tuple[int, int] | None = None,
-) -> Iterator[RawMessage]:
-    """Messages of rosbag2 storage readers (rosbags' sqlite3 / mcap storage plugins), merged in
-    log-time order, on the ``wanted`` (topic, normalised type) pairs (``between``: only those
-    logged in ``[lo, hi)``, which the storage readers select themselves).
-
-    Each storage file's own connections are matched by topic and type only. rosbags' folder
-    reader also compares the QoS profiles of metadata.yaml with those the storage file keeps,
-    and real bags disagree (rosbag2's own talker test bag: infinite deadlines written as 0 in
-    one and as 2147483647 s in the other), so it yields none of their messages. ``unzstd``:
-    payloads are zstd-compressed (``compression_mode: message``); None: unknown (a reindexed
-    bag), a payload is decompressed when it starts with the zstd magic bytes, which no CDR
-    payload does (CDR starts with its encapsulation header, 0x00 first). A compressed payload
-    that expands beyond the message cap is skipped with a warning on ``source``.
-    """
-    path = source.path
-    streams = []
-    for storage in storages:
-        conns = [
-            conn
-            for conn in storage.connections
-            if (conn.topic, normalize_msgtype(conn.msgtype)) in wanted
-        ]
-        if conns:
-            streams.append(_one_storage(source, storage, conns, wanted, unzstd, between))
-    if not streams:
-        return
-    merged: Iterator[RawMessage] = (
-        streams[0] if len(streams) == 1 else heapq.merge(*streams, key=attrgetter("log_time_ns"))
-    )
-    try:
-        yield from merged
-    except LogFormatError:
-        raise
-    except Exception as exc:  # rosbags, apsw / sqlite3, struct and zstd errors
-        raise LogFormatError(
-            f"{path}: cannot read messages ({exc})",
-            hint="the storage files may be corrupt or truncated",
-        ) from exc
-
-
-def _one_storage(
-    source: _RosbagsSource | _ReindexedSqliteSource,
-    storage: Any,
-    conns: list[Any],
-    wanted: dict[tuple[str, str], tuple[str, str, Encoding]],
-    unzstd: bool | None,
-    between: tuple[int, int] | None = None,
-) -> Iterator[RawMessage]:
-    from aion_cli.engine.time_text import iso_utc
-    from aion_cli.formats.limits import OverLimitError
-
-    meta = {conn.id: wanted[conn.topic, normalize_msgtype(conn.msgtype)] for conn in conns}
-    cap = source._limits.max_message_bytes
-    start, stop = between if between is not None else (None, None)
-    for conn, t_ns, data in storage.messages(conns, start, stop):
-        topic, msgtype, encoding = meta[conn.id]
-        if unzstd or (unzstd is None and data[:4] == _ZSTD_MAGIC):
-            try:
-                data = _unzstd(data, cap)
-            except OverLimitError as exc:
-                warning = (
-                    f"{source.path.name}: a message on {topic} at {iso_utc(t_ns)} skipped: {exc}"
-                )
-                if warning not in source.warnings:
-                    source.warnings.append(warning)
-                continue
-        elif type(data) is not bytes:
-            data = bytes(data)
-        if len(data) > cap:
-            from aion_cli.formats.limits import message_over_limit
-
-            warning = (
-                f"{source.path.name}: a message on {topic} at {iso_utc(t_ns)} skipped: "
-                f"{message_over_limit(len(data), cap)}"
-            )
-            if warning not in source.warnings:
-                source.warnings.append(warning)
-            continue
-        yield RawMessage(topic, msgtype, t_ns, data, encoding)
 
 
 def _open_rosbags(path: Path, kind: str, limits: ReadLimits) -> Any:
