@@ -221,7 +221,10 @@ def _spark_mesh(spark_dsg: Any, mesh: Mesh) -> Any:
 def _add_agents(spark_dsg: Any, dsg: Any, graph: GraphSnapshot) -> int:
     """The robot poses as agent nodes ``a0``, ``a1``... (time order, as Hydra numbers them)
     in partition ``a`` of layer 2, each with its position and stamp (whole microseconds, as
-    spark_dsg holds them); the map keeps no orientation nor the links between poses."""
+    spark_dsg holds them); the map keeps no orientation nor the links between poses, so each
+    pose is written unrotated (the identity quaternion). spark_dsg leaves a new node's
+    ``world_R_body`` uninitialised: memory of whatever was there, now and then NaN, which its
+    JSON writer saves as ``null`` and its reader then refuses ("type must be number")."""
     from datetime import timedelta
 
     if graph.agents is None:
@@ -232,6 +235,8 @@ def _add_agents(spark_dsg: Any, dsg: Any, graph: GraphSnapshot) -> int:
         attrs = spark_dsg.AgentNodeAttributes()
         attrs.position = np.asarray(xyz, dtype=np.float64)
         attrs.timestamp = timedelta(microseconds=us)
+        attrs.world_R_body = spark_dsg.Quaternion(1.0, 0.0, 0.0, 0.0)  # w, x, y, z
+        attrs.external_key = 0  # uninitialised too
         dsg.add_node(layer, spark_dsg.NodeSymbol(AGENT_PREFIX, k), attrs, ord(AGENT_PREFIX))
     return len(t_us)
 
@@ -265,6 +270,11 @@ def write_dynamic_graph(
     for node_id, xyz in zip(places.ids.tolist(), places.xyz, strict=True):
         if two_d:
             attrs = spark_dsg.Place2dNodeAttributes()
+            # left uninitialised by spark_dsg (memory of whatever was there, at times NaN,
+            # saved as a JSON null its reader refuses); a map keeps no ellipse of a place
+            attrs.ellipse_centroid = np.zeros(3)
+            attrs.ellipse_matrix_compress = np.zeros((2, 2))
+            attrs.ellipse_matrix_expand = np.zeros((2, 2))
         else:
             attrs = spark_dsg.PlaceNodeAttributes()
             attrs.real_place = True
