@@ -16,13 +16,13 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import compress
-from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
 from aion_cli.errors import InputError, MessageDecodeError
+from aion_cli.formats.raw import recordings_of
 from aion_cli.formats.tf_norms import NormTally
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_times import TimeCheck, TopicTimes
@@ -232,8 +232,7 @@ class TfReader:
         """The decoded ``/tf`` rows of ``chunk`` (``arrays``) also into the buffer of the
         recording each came from (:attr:`own`; :data:`~aion_cli.tf_trees.REST`'s: the
         recordings without one)."""
-        of = np.fromiter(map(attrgetter("recording"), chunk), np.int64, len(chunk))
-        of = of[arrays.msg_index]
+        of = recordings_of(chunk)[arrays.msg_index]
         of[~np.isin(of, list(self.own))] = REST
         dynamic = arrays.usable() & ~rows_static
         for recording, own in self.own.items():

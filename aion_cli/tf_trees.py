@@ -29,12 +29,12 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.types import Trajectory
+from aion_cli.formats import raw
 
 if TYPE_CHECKING:
     from aion_cli.engine.types import I64
@@ -47,9 +47,6 @@ __all__ = ["REST", "TfTrees", "overlapping", "own_tf_buffers"]
 REST = -1
 """The key of the tree of the ``/tf`` of every recording without a tree of its own (they
 overlap no other; their robot poses, beside the own trees')."""
-
-_RECORDING = attrgetter("recording")
-
 
 def own_tf_buffers(logset: Any, plan: TopicPlan) -> dict[int, TfBuffer]:
     """An empty buffer per recording of ``logset`` (:meth:`formats.logs.LogSet.
@@ -123,7 +120,7 @@ class TfTrees:
         message); None when the trees are not split."""
         if not self.split:
             return None
-        return np.fromiter(map(_RECORDING, messages), np.int64, len(messages))
+        return raw.recordings_of(messages)
 
     def groups(
         self, target: str, source: str, recording: I64 | None

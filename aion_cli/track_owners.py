@@ -20,12 +20,12 @@ logs that overlap or touch), so a shard keys their tracks as one pass does.
 
 from __future__ import annotations
 
-from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from aion_cli.engine.types import DetectionBatch
+from aion_cli.formats.raw import recordings_of
 from aion_cli.tf_trees import REST, overlapping
 
 if TYPE_CHECKING:
@@ -39,9 +39,6 @@ if TYPE_CHECKING:
 __all__ = [
     "REST", "TrackLinkers", "concat_owners", "estimate_by_owner", "owners_of", "tracks_apart"
 ]
-
-_RECORDING = attrgetter("recording")
-
 
 def tracks_apart(logset: Any, topics: Iterable[str]) -> dict[str, frozenset[int]]:
     """Per detection topic of ``topics`` (only those with any): the recordings of ``logset``
@@ -64,7 +61,7 @@ def owners_of(
     per message)."""
     if not apart or len(msg_index) == 0:
         return None
-    recording = np.fromiter(map(_RECORDING, messages), np.int64, len(messages))[msg_index]
+    recording = recordings_of(messages)[msg_index]
     own = np.isin(recording, np.fromiter(apart, np.int64, len(apart)))
     if not own.any():
         return None
