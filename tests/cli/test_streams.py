@@ -186,7 +186,7 @@ def test_a_slow_topic_has_a_rate(hz: float, shown: str) -> None:
     """``aion info``: a scene graph every ten minutes (510 in five days) read '0.00' Hz in the
     table and 0.001 in JSON, a topic of one message a day 0.0 in both: a number cut to
     nothing. The table gives two significant digits below 0.1 Hz, JSON three."""
-    from aion_cli.cli.info import rate_text
+    from aion_cli.cli.info_table import rate_text
     from aion_cli.formats.summary import TopicSummary
 
     assert rate_text(hz) == shown
