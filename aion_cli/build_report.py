@@ -146,7 +146,7 @@ class BuildReport:
     #: as ``fixed_windows`` (a parallel build names them in one note, ``shard_reports``)
     unposed: tuple[list[str], tuple[int, int, int, int]] | None = None
     #: the earliest detection time of the first batch learnt (not in the JSON): whether the
-    #: logs start before a continued map's data ends (``log_times.overlap_note``)
+    #: logs start before a continued map's data ends (``log_order.overlap_note``)
     first_detection_ns: int | None = None
     #: the earliest time of the data a continued map's closed windows would refuse, per kind
     #: ("detection": stamps, "scene graph"; not in the JSON): a parallel build's fold checks

@@ -39,7 +39,7 @@ from aion_cli.engine.heading_hold import HeadingHold
 from aion_cli.engine.state import DROP_REASONS
 from aion_cli.engine.types import F64, I64, DetectionBatch, GraphSnapshot
 from aion_cli.fixed_sensor import fixed_sensor_windows
-from aion_cli.log_times import check_after_open, other_clock_error, overlap_note
+from aion_cli.log_order import check_after_open, other_clock_error, overlap_note
 from aion_cli.times_apart import apart_warnings, joined_times
 
 if TYPE_CHECKING:
@@ -301,7 +301,7 @@ class StreamStep:
         times are a simulation's clock from 0 while the stamps, which make the windows, are
         on the wall clock: the stream merges the logs by log times, which cannot tell the order
         of their stamps, so whole logs would be lost in silence.
-        :func:`aion_cli.log_times.other_clock_error` instead, as the parallel build refuses
+        :func:`aion_cli.log_order.other_clock_error` instead, as the parallel build refuses
         them (before anything is written)."""
         open_window = mapper.state.open_window
         if len(self._logs) < 2 or open_window is None:
@@ -321,10 +321,10 @@ class StreamStep:
     def _check_after_map(
         self, t_ns: I64, what: str, first: bool = False, xyz: F64 | None = None
     ) -> None:
-        """A continued map's closed windows take no data (:func:`aion_cli.log_times.
+        """A continued map's closed windows take no data (:func:`aion_cli.log_order.
         check_after_open`; detections, ``xyz``, that repeat a recording the map holds are
         refused as such: :func:`aion_cli.recording_twins.check_batch`); the ``first``
-        detections are checked for the map's data (:func:`aion_cli.log_times.overlap_note`;
+        detections are checked for the map's data (:func:`aion_cli.log_order.overlap_note`;
         a parallel build's parent checks its shards'). Every build keeps the earliest time of
         each ``what`` (``report.data_starts``): a shard's fold checks it by the same rule."""
         if len(t_ns) == 0:
@@ -357,7 +357,7 @@ class StreamStep:
 
     def note_overlap(self, first_ns: int) -> None:
         """The note on logs whose first detection (``first_ns``) comes before the continued
-        map's data ends (:func:`aion_cli.log_times.overlap_note`); none in a shard, whose
+        map's data ends (:func:`aion_cli.log_order.overlap_note`); none in a shard, whose
         parent makes it from its shards' first detections."""
         end = self.previous_manifest.end_ns if self.previous_manifest else None
         if self.shard or end is None:

@@ -1,5 +1,5 @@
 """Whether two logs that cover the same time on the same detection topic hold the same
-people: the test behind the build's "count twice" warning (``log_times.overlap_warnings``).
+people: the test behind the build's "count twice" warning (``log_order.overlap_warnings``).
 
 Overlapping time spans alone do not say so: two sensors, two robots, or the train and test
 splits of one recording (ATC's hours, split 90/10 by person) hold different people at the

@@ -76,7 +76,8 @@ from aion_cli.formats.log_overlaps import topics_at_once
 from aion_cli.graph_feed import GraphFeed, graph_source
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
-from aion_cli.log_times import TopicTimes, overlap_warnings
+from aion_cli.log_order import overlap_warnings
+from aion_cli.log_times import TopicTimes
 from aion_cli.log_twins import topic_twin_warnings
 from aion_cli.manifest import InputLog, Manifest
 from aion_cli.mapquery import LoadedMap

@@ -59,7 +59,7 @@ class ShardTask:
     # no map and no logs before the shard's logs (ShardStart.opens_map)
     opens_map: bool = False
     # the names of the continued map's inputs: a shard out of time order is refused with the
-    # command that builds them and the logs at once (aion_cli.log_times.out_of_order_error)
+    # command that builds them and the logs at once (aion_cli.log_order.out_of_order_error)
     map_inputs: tuple[str, ...] = ()
     # the continued map's open window's start (None: a new map): the shard's detections and
     # scene graphs before it are refused, as a sequential build refuses them
@@ -268,7 +268,7 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
     batches: before a continued map's open window (``task.map_open_ns``) they are refused
     (``_check_after_map``); before the open window of the map so far, with the logs' own
     clock a simulation's from 0, the clock is the reason (``_check_clocks``)."""
-    from aion_cli.log_times import other_clock_error
+    from aion_cli.log_order import other_clock_error
 
     starts = result.report.data_starts
     if not starts:
@@ -288,8 +288,8 @@ def _check_order(acc: MapState, result: ShardResult, task: ShardTask) -> None:
 def _check_after_map(result: ShardResult, task: ShardTask, open_start: int) -> None:
     """The shard's detections or scene graphs before a continued map's open window (from
     ``open_start``): refused, with the command that builds the map's inputs and the logs at
-    once (:func:`aion_cli.log_times.out_of_order_error`), or as a recording the map holds."""
-    from aion_cli.log_times import other_clock_error, out_of_order_error
+    once (:func:`aion_cli.log_order.out_of_order_error`), or as a recording the map holds."""
+    from aion_cli.log_order import other_clock_error, out_of_order_error
 
     early = {what: t for what, t in result.report.data_starts.items() if t < open_start}
     if not early:

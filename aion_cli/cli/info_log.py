@@ -150,7 +150,7 @@ def _overlaps(logset: Any, plan: Any) -> list[str]:
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.windows import window_ns
     from aion_cli.errors import AionError
-    from aion_cli.log_times import overlap_warnings
+    from aion_cli.log_order import overlap_warnings
 
     try:
         adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
