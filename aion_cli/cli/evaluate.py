@@ -21,51 +21,18 @@ from aion_cli.cli.common import (
     map_frame_option,
     quiet_option,
 )
+from aion_cli.cli.evaluate_columns import (
+    ACTIVITY_COLUMNS,
+    LINCOLN_ACTIVITY_COLUMNS,
+    SCORE_COLUMNS,
+    TABLE_I_COLUMNS,
+)
+from aion_cli.cli.evaluate_data import DATA_DEFAULT_TEXT, data_folder, existing_dir
 from aion_cli.cli.output import Column, emit, format_option, num
-from aion_cli.number_text import mean_spread
 
 OFFICE_MAX_DAYS = 34
 """The most --days of evaluate office (and report): what a simulated scene holds at 2 Hz
 (``sim.scenario.MAX_TICKS``: its robot is simulated per tick in memory)."""
-DATA_ENV = "AION_SHARED_DATA"
-DATA_DEFAULT_TEXT = f"${DATA_ENV}, else ../shared/data"
-
-
-def shared_data() -> Path:
-    """The shared data folder: ``$AION_SHARED_DATA``, else ``../shared/data`` from the current
-    folder (beside a checkout), else ``shared/data`` beside the checkout aion runs from (so
-    the examples work from any folder of a development install)."""
-    import os
-
-    env = os.environ.get(DATA_ENV)
-    if env:
-        return Path(env)
-    here = Path("../shared/data")
-    if here.is_dir():
-        return here
-    beside = Path(__file__).resolve().parents[3] / "shared" / "data"
-    return beside if beside.is_dir() else here
-
-
-DATA_FILES = {"atc": "atc-1024-*.csv", "lincoln": "2017-*", "fremen_door": "training_data.txt"}
-"""A file each dataset's folder holds (``--data`` of ``evaluate atc``, ``lincoln``, ``door``)."""
-
-
-def _data(data_dir: Path | None, sub: str = "") -> Path:
-    """``--data`` as given, else the shared data's ``sub`` folder. The shared data folder
-    itself given to a command that reads one of its folders (``evaluate report --data``
-    takes it) is refused with the folder to give."""
-    from aion_cli.errors import InputError
-
-    if data_dir is None:
-        return shared_data() / sub if sub else shared_data()
-    if sub and (data_dir / sub).is_dir() and not any(data_dir.glob(DATA_FILES[sub])):
-        raise InputError(
-            f"--data {data_dir} is the shared data folder (it holds {sub}/, not the files "
-            "in it): this command reads the dataset's own folder",
-            hint=f"give --data {data_dir / sub} (only evaluate report takes the shared folder)",
-        )
-    return data_dir
 
 
 def _config(path: Path | None) -> Any:
@@ -84,22 +51,6 @@ def _day(text: str) -> str:
     return text.strip()
 
 
-def _existing_dir(path: Path, what: str) -> Path:
-    from aion_cli.errors import InputError
-
-    if path.is_file():  # the dataset's file given for its folder
-        raise InputError(
-            f"--data {path} is a file: {what} is read from the folder holding its files",
-            hint=f"give --data {path.parent}",
-        )
-    if not path.is_dir():
-        raise InputError(
-            f"{what} folder not found: {path}",
-            hint=f"pass it with --data DIR, or point ${DATA_ENV} at the shared data folder",
-        )
-    return path
-
-
 @click.group("evaluate", short_help="The paper's comparison, real datasets, held-out logs.")
 def evaluate() -> None:
     """Evaluate aion: against a grid Map of Dynamics, on real tracks, FreMEn itself, and your
@@ -114,16 +65,6 @@ def evaluate() -> None:
       aion evaluate report -o report/             all of it as markdown with PNG plots
       aion evaluate holdout site.aion later.mcap  your map's forecast on your held-out logs
     """
-
-
-SCORE_COLUMNS = (
-    Column("model", "model", justify="left"),
-    Column("detections", "detections", lambda v: f"{v:,}"),
-    Column("unmatched", "unmatched", lambda v: f"{v:,}"),
-    Column("nll_matched", "NLL (matched)", num(3)),
-    Column("nll_all", "NLL (all)", num(3)),
-    Column("chi_square", "chi²", num(3)),
-)
 
 
 @evaluate.command("atc", short_help="Heading NLL on the real ATC mall tracks.")
@@ -167,7 +108,7 @@ def atc(
     from aion_cli.cli.console import note
     from aion_cli.evaluation.atc import run_atc
 
-    data = _existing_dir(_data(data_dir, "atc"), "ATC data")
+    data = existing_dir(data_folder(data_dir, "atc"), "ATC data")
     result = run_atc(data, protocol, _config(config_path), radius, progress=note)
     for line in result.notes:  # hours without training data (JSON: hours_without_training)
         note(line)
@@ -200,7 +141,7 @@ def door(data_dir: Path | None, fmt: str) -> None:
     from aion_cli.cli.console import note
     from aion_cli.evaluation.door import run_door
 
-    result = run_door(_existing_dir(_data(data_dir, "fremen_door"), "door data"))
+    result = run_door(existing_dir(data_folder(data_dir, "fremen_door"), "door data"))
     note(
         f"FreMEn order {result['fremen_order']} (best day-ahead score); the model itself "
         f"chooses {result['chosen_family']}; strongest periods (h): "
@@ -216,19 +157,6 @@ def door(data_dir: Path | None, fmt: str) -> None:
         Column("mae_chosen", "MAE chosen", num(4)),
     )
     emit(fmt, result["weeks"], columns, json_payload=result, title="FreMEn door check")
-
-
-ACTIVITY_COLUMNS = (
-    Column("model", "model", justify="left"),
-    Column("spearman", "Spearman", num(3)),
-    Column("poisson_deviance", "Poisson dev.", num(0)),
-    Column("mae", "MAE / hour", num(0)),
-)
-LINCOLN_ACTIVITY_COLUMNS = (
-    *ACTIVITY_COLUMNS[:2],
-    Column("spearman_rate", "Spearman (rates)", num(3)),
-    *ACTIVITY_COLUMNS[2:],
-)
 
 
 @evaluate.command("lincoln", short_help="Forecasts of a real multi-day corridor.")
@@ -280,7 +208,8 @@ def lincoln(
     if train_days is not None:
         train = tuple(d.strip() for d in train_days.split(",") if d.strip())
     result = run_lincoln(
-        _existing_dir(_data(data_dir, "lincoln"), "Lincoln data"), config, radius, progress=note,
+        existing_dir(data_folder(data_dir, "lincoln"), "Lincoln data"), config, radius,
+        progress=note,
         train_days=train, test_day=TEST_DAY if test_day is None else _day(test_day), align=align,
     )
     for line in result.warnings:  # a user mistake: shown with -q and --format json too
@@ -400,20 +329,6 @@ def holdout(
              f"hour{'' if len(result.hours) == 1 else 's'})")
 
 
-TABLE_I_COLUMNS = (
-    Column("map_type", "map type", justify="left"),
-    Column("data_type", "data type", justify="left"),
-    Column("js", "JS (ours)", mean_spread),
-    Column("paper_js", "JS (paper)", mean_spread),
-    Column("bhattacharyya", "Bhatt. (ours)", mean_spread),
-    Column("paper_bhattacharyya", "Bhatt. (paper)", mean_spread),
-    Column("wasserstein", "Wass. (ours)", mean_spread),
-    Column("paper_wasserstein", "Wass. (paper)", mean_spread),
-    Column("circular_correlation", "circ. r (ours)", mean_spread),
-    Column("paper_circular_correlation", "circ. r (paper)", mean_spread),
-)
-
-
 @evaluate.command("office", short_help="The paper's Table I on the simulated office.")
 @click.option("--scenes", type=click.IntRange(1, 200), default=20, show_default=True,
               help="Simulated office scenes (the paper used 20).")
@@ -487,6 +402,6 @@ def report(
     from aion_cli.cli.console import note
     from aion_cli.evaluation.report import write_report
 
-    path = write_report(out_dir, _data(data_dir), scenes=scenes, days=days, skip=set(skip),
+    path = write_report(out_dir, data_folder(data_dir), scenes=scenes, days=days, skip=set(skip),
                         progress=note)
     note(f"wrote {path}")

@@ -209,7 +209,7 @@ def test_one_scene_prints_no_zero_spread_and_no_negative_zero() -> None:
     """Table I of one scene printed every cell of ours as 'x ± 0.00' (the spread of one
     value); it prints the mean alone, the paper's cells keep theirs. Values that round to
     zero read 0.00 / +0.000, never -0.00 (the direction and truth sentences too)."""
-    from aion_cli.cli.evaluate import TABLE_I_COLUMNS
+    from aion_cli.cli.evaluate_columns import TABLE_I_COLUMNS
     from aion_cli.evaluation.office_directions import direction_truth_sentence
     from aion_cli.evaluation.office_truth import truth_sentence
 
