@@ -39,16 +39,26 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import ConfigError
+from aion_cli.formats.detections.suggest_fields import (
+    ARRAY,
+    BASE,
+    FLOATS,
+    INTS,
+    NAME,
+    SEQUENCE,
+    field_names,
+    fields_of,
+    has_header,
+    number_fields,
+    own_frame,
+    own_stamp,
+    velocity_numbers,
+)
 from aion_cli.formats.raw import normalize_msgtype
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
-_BASE, _NAME, _ARRAY, _SEQUENCE = 1, 2, 3, 4
-_FLOATS = frozenset({"float32", "float64"})
-_INTS = frozenset(
-    {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
-)
 _MAX_DEPTH = 5
 
 #: Array names most likely to hold the people, best first.
@@ -88,35 +98,19 @@ class _Candidates:
     vec2: list[str] = field(default_factory=list)  # numeric x, y only (or 2 numbers)
 
 
-def _fields(store: Typestore, typename: str) -> list[tuple[str, tuple[int, Any]]]:
-    return [(name, (int(node[0]), node[1])) for name, node in store.fielddefs[typename][1]]
-
-
-def _field_names(store: Typestore, typename: str) -> dict[str, tuple[int, Any]]:
-    return dict(_fields(store, typename))
-
-
 def _is_vector(store: Typestore, typename: str, names: str) -> bool:
-    fields = _field_names(store, typename)
+    fields = field_names(store, typename)
     if set(fields) != set(names) and not (names == "xyz" and set("xyz") <= set(fields)):
         return False
     if names == "xyz" and "w" in fields:
         return False
-    return all(fields[c][0] == _BASE and fields[c][1][0] in _FLOATS for c in names)
-
-
-def _number_fields(store: Typestore, typename: str) -> set[str]:
-    return {
-        name
-        for name, node in _fields(store, typename)
-        if node[0] == _BASE and (node[1][0] in _FLOATS or node[1][0] in _INTS)
-    }
+    return all(fields[c][0] == BASE and fields[c][1][0] in FLOATS for c in names)
 
 
 def _is_planar(store: Typestore, typename: str) -> bool:
     """A planar point or pose: numeric ``x`` and ``y``, no ``z`` or ``w``."""
-    numbers = _number_fields(store, typename)
-    names = set(_field_names(store, typename))
+    numbers = number_fields(store, typename)
+    names = set(field_names(store, typename))
     return {"x", "y"} <= numbers and not names & {"z", "w"}
 
 
@@ -127,8 +121,8 @@ _YAW_NAMES = ("yaw", "theta", "heading", "angle", "phi")
 def _yaws(store: Typestore, typename: str, prefix: str = "") -> list[str]:
     floats = {
         name
-        for name, node in _fields(store, typename)
-        if node[0] == _BASE and node[1][0] in _FLOATS
+        for name, node in fields_of(store, typename)
+        if node[0] == BASE and node[1][0] in FLOATS
     }
     return [prefix + n for n in _YAW_NAMES if n in floats]
 
@@ -143,7 +137,7 @@ def _planar(store: Typestore, item: str, found: _Candidates) -> tuple[str | list
             return path, _yaws(store, item)
         node = _walk_to(store, item, path)
         return path, _yaws(store, node, path + ".") if node else []
-    numbers = _number_fields(store, item)
+    numbers = number_fields(store, item)
     if {"x", "y"} <= numbers:
         return ["x", "y", "z"] if "z" in numbers else ["x", "y"], _yaws(store, item)
     return "", []
@@ -152,8 +146,8 @@ def _planar(store: Typestore, item: str, found: _Candidates) -> tuple[str | list
 def _walk_to(store: Typestore, typename: str, path: str) -> str | None:
     """The message type at a dotted ``path`` of plain field names (None otherwise)."""
     for step in path.split("."):
-        node = _field_names(store, typename).get(step)
-        if node is None or node[0] != _NAME:
+        node = field_names(store, typename).get(step)
+        if node is None or node[0] != NAME:
             return None
         typename = str(node[1])
     return typename
@@ -161,12 +155,12 @@ def _walk_to(store: Typestore, typename: str, path: str) -> str | None:
 
 def _is_uuid(store: Typestore, node: tuple[int, Any]) -> bool:
     """unique_identifier_msgs/UUID (``uint8[16] uuid``) or a bare ``uint8[16]``."""
-    if node[0] == _NAME:
-        fields = _fields(store, node[1])
+    if node[0] == NAME:
+        fields = fields_of(store, node[1])
         return len(fields) == 1 and _is_uuid(store, fields[0][1])
-    if node[0] == _ARRAY:
+    if node[0] == ARRAY:
         elem, length = node[1]
-        return int(elem[0]) == _BASE and elem[1][0] in ("uint8", "byte") and length == 16
+        return int(elem[0]) == BASE and elem[1][0] in ("uint8", "byte") and length == 16
     return False
 
 
@@ -177,10 +171,10 @@ def _walk(
     ``quat``, ``id`` (scalars, strings, UUIDs). Headers and sequences are not entered."""
     if depth > _MAX_DEPTH:
         return
-    for name, node in _fields(store, typename):
+    for name, node in fields_of(store, typename):
         path = f"{prefix}{name}"
         kind, detail = node
-        if kind == _NAME:
+        if kind == NAME:
             sub = str(detail)
             if sub.endswith("/Header"):
                 continue
@@ -194,13 +188,13 @@ def _walk(
                 yield path, "id"
             else:
                 yield from _walk(store, sub, path + ".", depth + 1)
-        elif kind == _BASE:
+        elif kind == BASE:
             base = detail[0]
-            if base in _INTS or base == "string":
+            if base in INTS or base == "string":
                 yield path, "id"
-        elif kind == _ARRAY:
+        elif kind == ARRAY:
             elem, length = detail
-            if int(elem[0]) == _BASE and elem[1][0] in _FLOATS and length in (2, 3, 4):
+            if int(elem[0]) == BASE and elem[1][0] in FLOATS and length in (2, 3, 4):
                 if length == 2:
                     yield f"{path}[0..1]", "vec2"
                 elif length == 3:
@@ -248,8 +242,8 @@ def _ids(ids: list[str]) -> list[str]:
 def _arrays(store: Typestore, typename: str) -> list[str]:
     """Sequences (or fixed arrays) of messages that hold a position, best first."""
     found = []
-    for name, (kind, detail) in _fields(store, typename):
-        if kind not in (_SEQUENCE, _ARRAY) or int(detail[0][0]) != _NAME:
+    for name, (kind, detail) in fields_of(store, typename):
+        if kind not in (SEQUENCE, ARRAY) or int(detail[0][0]) != NAME:
             continue
         element = str(detail[0][1])
         found_in = _collect(store, element)
@@ -260,59 +254,8 @@ def _arrays(store: Typestore, typename: str) -> list[str]:
 
 
 def _element(store: Typestore, typename: str, array: str) -> str:
-    detail = _field_names(store, typename)[array][1]
+    detail = field_names(store, typename)[array][1]
     return str(detail[0][1])
-
-
-#: an element's velocity as a number per axis, best first (``velocity = ["vx", "vy"]``)
-_VELOCITY_NUMBERS = (
-    ("vx", "vy", "vz"), ("vel_x", "vel_y", "vel_z"), ("velocity_x", "velocity_y", "velocity_z"),
-    ("v_x", "v_y", "v_z"),
-)  # fmt: skip
-#: an element's own time (a Time message or integer nanoseconds) and frame, best first
-_STAMP_NAMES = ("stamp", "t_ns", "stamp_ns", "time_ns", "timestamp", "time", "t")
-_FRAME_NAMES = ("frame_id", "frame", "frame_name")
-
-
-def _velocity_numbers(store: Typestore, typename: str) -> list[str]:
-    """The element's velocity as separate numbers (``vx, vy[, vz]``); empty without them."""
-    numbers = _number_fields(store, typename)
-    for names in _VELOCITY_NUMBERS:
-        if set(names[:2]) <= numbers:
-            return list(names if names[2] in numbers else names[:2])
-    return []
-
-
-def _item_stamp(store: Typestore, typename: str) -> str | None:
-    """A field of the element named like a time that the mapping reads as one (a Time message,
-    or a 64-bit integer of nanoseconds: ``item_stamp``); None without one."""
-    fields = _field_names(store, typename)
-    for name in _STAMP_NAMES:
-        node = fields.get(name)
-        if node is None:
-            continue
-        if node[0] == _NAME:
-            names = set(_field_names(store, str(node[1])))
-            if {"sec", "nanosec"} <= names or {"secs", "nsecs"} <= names:
-                return name
-        elif node[0] == _BASE and node[1][0] in ("int64", "uint64"):
-            return name
-    return None
-
-
-def _item_frame(store: Typestore, typename: str) -> str | None:
-    """A string field of the element named like a frame (``item_frame``); None without one."""
-    fields = _field_names(store, typename)
-    for name in _FRAME_NAMES:
-        node = fields.get(name)
-        if node is not None and node[0] == _BASE and node[1][0] == "string":
-            return name
-    return None
-
-
-def _has_header(store: Typestore, typename: str) -> bool:
-    node = _field_names(store, typename).get("header")
-    return node is not None and node[0] == _NAME and str(node[1]).endswith("/Header")
 
 
 def _toml_string(value: str) -> str:
@@ -409,7 +352,7 @@ def suggest_mapping(
                 "mapping to read",
                 hint=RAW_SENSOR_HINT,
             )
-        fields = ", ".join(n for n, _ in _fields(store, name))
+        fields = ", ".join(n for n, _ in fields_of(store, name))
         raise ConfigError(
             f"{topic}: {name} has no field aion can read as a position (a Point/Vector3-like "
             "message, 3 numbers, or numeric x and y, directly or in an array of messages); its "
@@ -418,13 +361,13 @@ def suggest_mapping(
             "are (`aion info LOG` lists the topics and types)",
         )
     velocities = _velocities(found.vec3)
-    numbers = [] if velocities else _velocity_numbers(store, item)
+    numbers = [] if velocities else velocity_numbers(store, item)
     ids = _ids(found.ids)
-    header = _has_header(store, name)
-    item_header = array is not None and _has_header(store, item)
+    header = has_header(store, name)
+    item_header = array is not None and has_header(store, item)
     own = array is not None and not item_header
-    item_stamp = _item_stamp(store, item) if own else None
-    item_frame = _item_frame(store, item) if own else None
+    item_stamp = own_stamp(store, item) if own else None
+    item_frame = own_frame(store, item) if own else None
     lines = [
         f"# aion detections mapping for {_comment(topic)} ({name}),",
         "# suggested from the log's own definition of the type. Check the fields, then:",
