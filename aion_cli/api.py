@@ -129,10 +129,10 @@ class Map(Generic[Report]):
     def from_state(cls, state: MapState, timezone: ZoneLike | None = None) -> Map[None]:
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g. to
         :meth:`save` it; its scene graph and manifest (its queries' notes; its time span, the log
-        times fed: :func:`aion_cli.api_make.state_span`) are the state's now: wrap it again after
+        times fed: :func:`aion_cli.api_state.state_span`) are the state's now: wrap it again after
         feeding more. A loaded map's state is refused: its queries count its pending day and
         open window as closed, in place (:meth:`save` copies a loaded map)."""
-        from aion_cli.api_make import state_map
+        from aion_cli.api_state import state_map
 
         return Map(state_map(state, timezone))
 
@@ -468,7 +468,7 @@ class Map(Generic[Report]):
         """Write the map to ``path`` (a new file, or an existing aion map, which is replaced
         atomically; anything else is refused). A map loaded from a file is copied byte for
         byte (its checksums stay valid); an in-memory map is written from its state."""
-        from aion_cli.api_make import copy_map, write_state
+        from aion_cli.api_state import copy_map, write_state
 
         target = as_path(path)
         if self._file is not None:

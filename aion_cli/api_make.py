@@ -1,9 +1,8 @@
 """The Python API's functions that make maps: :func:`build` (``aion build``), :func:`merge`
 (``aion merge``) and :func:`compact` (``aion compact``). Each returns the :class:`aion_cli.api.Map`
 it wrote, with what was done in ``Map.report``; :mod:`aion_cli.api` re-exports them. Beside
-them the map :meth:`Map.from_state` makes of a state in memory (:func:`state_map`) and the two
-ways ``Map.save`` writes a map: :func:`copy_map` (a loaded map's file) and :func:`write_state`
-(a state in memory).
+them ``Map.holdout``'s scoring (:func:`score_holdout`); the map :meth:`Map.from_state` makes
+of a state in memory and the two ways ``Map.save`` writes a map are in :mod:`aion_cli.api_state`.
 """
 
 from __future__ import annotations
@@ -29,12 +28,10 @@ if TYPE_CHECKING:
     from aion_cli.build_options import BuildOptions
     from aion_cli.build_report import BuildReport, ProgressSink
     from aion_cli.engine.config import ModelConfig
-    from aion_cli.engine.state import MapState
     from aion_cli.evaluation.holdout import HoldoutResult
     from aion_cli.manifest import Manifest
     from aion_cli.mapquery import LoadedMap
     from aion_cli.merging import MergeReport
-    from aion_cli.pinned_file import PinnedFile
     from aion_cli.query_only import CompactReport
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -366,56 +363,6 @@ def _config(config: object) -> ModelConfig | None:
     )
 
 
-def state_map(state: object, timezone: object) -> LoadedMap:
-    """A state built in memory as a map to query and save (:meth:`Map.from_state`): a
-    ``MapState`` that can be written (not a loaded map's), its zone a name every query
-    reads; its scene graph is the state's latest, and its manifest the one :meth:`Map.save`
-    writes (:func:`state_manifest`), so its queries answer with the notes and
-    ``hour_observed`` the saved map's give (before: none, and None)."""
-    from aion_cli.api_checks import zone_name
-    from aion_cli.engine.state import MapState
-    from aion_cli.mapquery import LoadedMap, latest_graph
-
-    if not isinstance(state, MapState):
-        raise InputError(
-            f"from_state needs an engine MapState, got {type(state).__name__}",
-            hint="aion_cli.engine.mapper.Mapper(config).state, after feeding it",
-        )
-    if not state.writable:
-        raise InputError(
-            "this state was read from a map file for queries and cannot be written",
-            hint="save the loaded map itself (Map.save copies it), or load it with "
-            "aion_cli.mapquery.load_map(path, writable=True) to continue it",
-        )
-    name = zone_name(timezone, "timezone")
-    if name is not None:  # an unknown name would fail every query of the saved map
-        from aion_cli.timeparse import resolve_zone
-
-        name = resolve_zone(name).name
-    return LoadedMap(state, latest_graph(state), state_manifest(state, name).to_dict())
-
-
-def copy_map(file: PinnedFile, target: Path) -> None:
-    """Write the map file held open as ``file`` (a loaded map's, :meth:`Map.save`) to
-    ``target`` byte for byte, its checksums valid: the bytes loaded, also once its path was
-    replaced or deleted; nothing to write when ``target`` is that very file. An existing
-    ``target`` is replaced atomically only if it is an aion map."""
-    from aion_cli.formats.mapfile import check_map_target, map_lock
-    from aion_cli.formats.outputs import staging_prefix
-
-    file.check()
-    if target.exists() and os.path.samestat(os.stat(target), os.fstat(file.fd)):
-        return  # the very file: nothing to write
-    check_map_target(target)
-    tmp = target.with_name(f"{staging_prefix(target.name)}{os.getpid()}.tmp")
-    with map_lock(target):  # as write_map: one writer per map at a time
-        try:
-            file.copy_to(tmp)  # the bytes loaded, even if the path was replaced
-            os.replace(tmp, target)
-        finally:
-            tmp.unlink(missing_ok=True)
-
-
 def score_holdout(
     loaded: LoadedMap,
     manifest: Manifest,
@@ -438,55 +385,3 @@ def score_holdout(
     result = score_held_out(loaded, opts, radius)
     warn_of(result.warnings, result.notes)
     return result
-
-
-def state_manifest(state: MapState, timezone: str | None) -> Manifest:
-    """The manifest of a state fed in memory (``Map.from_state``): the detections fed, counted
-    as a build's manifest counts them, and the families, days scored and hours observed
-    (``family_summary``) that queries note from; what :func:`write_state` stores."""
-    from aion_cli.engine.family_summary import family_summary
-    from aion_cli.manifest import Manifest
-    from aion_cli.mapquery import state_counts
-
-    start, end = state_span(state)
-    return Manifest(
-        state={},
-        config=state.config.to_dict(),
-        counts={  # the detections fed, as a build's manifest counts them
-            "read": state.accepted + sum(state.dropped.values()),
-            "used": state.accepted,
-            "dropped": {k: v for k, v in state.dropped.items() if v},
-            **state_counts(state),
-        },
-        graph_source="memory",
-        timezone=timezone,
-        families=family_summary(state),
-        start_ns=start,
-        end_ns=end,
-    )
-
-
-def state_span(state: MapState) -> tuple[int | None, int | None]:
-    """The span of log time a state fed in memory knows (what a build records as its logs'
-    ``time_span``, for the notes of queries far from it): from the earliest time fed
-    (``first_time_ns``) or fixed-sensor interval to the latest (``log_time_ns``) or interval
-    end; ``(None, None)`` when it knows no start or no end (a state read from a file
-    and continued keeps no first time)."""
-    observed = state.observation
-    starts = [] if state.first_time_ns is None else [int(state.first_time_ns)]
-    ends = [] if state.log_time_ns is None else [int(state.log_time_ns)]
-    if observed.fixed_start.size:
-        starts.append(int(observed.fixed_start.min()))
-        ends.append(int(observed.fixed_end.max()))
-    if not starts or not ends:
-        return None, None
-    return min(starts), max(ends)
-
-
-def write_state(state: MapState, timezone: str | None, target: Path) -> None:
-    """Write an in-memory ``state`` (``Map.from_state``) as the map file ``target``, with
-    :func:`state_manifest` (of the state now, as fed so far) and the state's members."""
-    from aion_cli.formats.mapfile import write_map
-
-    arrays, meta = state.to_arrays(lazy=True)
-    write_map(target, arrays, replace(state_manifest(state, timezone), state=meta).to_dict())
