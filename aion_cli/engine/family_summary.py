@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from aion_cli.engine.closing import open_window_record
-from aion_cli.engine.temporal import model as temporal_model
+from aion_cli.engine.temporal import query_state
 from aion_cli.engine.temporal.choice import CHOICE_RULES
 
 if TYPE_CHECKING:
@@ -20,19 +20,19 @@ def family_summary(state: MapState) -> dict[str, Any]:
     """How many entries forecast with each family (flow and direction), whether the map's
     total is reconciled to its own forecast, the days and windows scored, and the profile
     bins (hour of day × kind of day) in which anything was observed, pending day and open
-    window included (:func:`~aion_cli.engine.temporal.model.observed_bins`: a forecast in
+    window included (:func:`~aion_cli.engine.temporal.query_state.observed_bins`: a forecast in
     another bin is extrapolated). The choice depends only on the day-ahead scores, so no
     forecast is prepared."""
     rows = state.entries.canonical_order()
     groups, n_groups = state.groups(rows)
     t = state.scored_temporal()
     params = state.params
-    flow, direction, map_flow = temporal_model.choose(params, t, rows, groups, n_groups)
+    flow, direction, map_flow = query_state.choose(params, t, rows, groups, n_groups)
     reconciled = state.config.reconcile and params.flow[map_flow] != "static"
     parts = [state.pending.consolidated()] if state.pending else []
     if (open_window := open_window_record(state)) is not None:
         parts.append(open_window)
-    observed = temporal_model.observed_bins(params, state.temporal, rows, parts, state.window_ns)
+    observed = query_state.observed_bins(params, state.temporal, rows, parts, state.window_ns)
     return {
         "flow": _tally(np.asarray(params.flow)[flow]),
         "direction": _tally(np.asarray(params.direction)[direction]),

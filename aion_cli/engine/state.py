@@ -28,6 +28,7 @@ from aion_cli.engine.routing import RouteTable
 from aion_cli.engine.state_arrays import map_state_from_arrays, map_state_to_arrays
 from aion_cli.engine.temporal import components as fremen_components
 from aion_cli.engine.temporal import model as temporal_model
+from aion_cli.engine.temporal import query_state
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.calendar import DAY_NS
 from aion_cli.engine.temporal.components import FremenComponents
@@ -255,7 +256,7 @@ class MapState:
         if self._view is not None and self._view[0] == key:
             return self._view[1]
         provisional = self.provisional_scores()  # before the view absorbs the pending day
-        view = temporal_model.query_view(
+        view = query_state.query_view(
             self.params,
             self.temporal,
             self.pending,
@@ -316,7 +317,7 @@ class MapState:
         """The FreMEn components a query of the entries ``order`` (canonical) will use,
         computed from the state as the query sees it (``engine.temporal.components``)."""
         groups, n_groups = self.groups(order)
-        flow, direction, map_flow = temporal_model.choose(
+        flow, direction, map_flow = query_state.choose(
             self.params, self.scored_temporal(), order, groups, n_groups
         )
         name = self.params.flow[map_flow]

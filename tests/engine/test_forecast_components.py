@@ -187,7 +187,7 @@ def test_an_entry_whose_components_the_map_lacks_does_not_choose_fremen(map_path
     such an entry takes its best other family instead of stopping the query ("forecast
     components do not cover what was asked"): here the choice is made as if the first
     FreMEn entry's components were missing; every other entry chooses as the map did."""
-    from aion_cli.engine.temporal.model import choose
+    from aion_cli.engine.temporal.query_state import choose
 
     state = load_map(map_path, forecast_only=True).state
     view = state.query_temporal()

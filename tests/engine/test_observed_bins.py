@@ -1,6 +1,6 @@
 """``family_summary``'s ``observed_bins``: the profile bins (hour of day × kind of day) in
 which a fixed sensor observed anything, checked against the bins of the windows themselves,
-whatever part of them is absorbed, pending or still open; and ``temporal.model.observed_bins``
+whatever part of them is absorbed, pending or still open; and ``temporal.query_state.observed_bins``
 under it, which reads only the rows observed on their own."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from aion_cli.engine.family_summary import family_summary
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.calendar import Calendar
-from aion_cli.engine.temporal.model import observed_bins
 from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.query_state import observed_bins
 from tests.engine.engine_builders import DAY_NS, T0, detections
 
 W = 600 * 10**9
@@ -48,7 +48,7 @@ def test_the_bins_are_those_of_the_windows_observed(
 
 
 def test_rows_never_observed_on_their_own_are_not_read() -> None:
-    """``temporal.model.observed_bins`` reads the profiles of the rows with windows of their
+    """``temporal.query_state.observed_bins`` reads the profiles of the rows with windows of their
     own (n > 0) only: a fixed sensor's map of 10^5 cells has an all-zero profile of 48 bins
     per row, which gathering cost a third of ``aion predict --top 10``. Rows 0 and 2 saw bins
     3 and 5; row 1 (n = 0) holds ones in every bin, which it cannot hold in a map (n is the
