@@ -20,8 +20,9 @@ the same functions (:mod:`aion_cli.predictions`, :mod:`aion_cli.routes`,
 :mod:`aion_cli.exports`), so results are equal to their JSON output.
 
 :class:`Map` is here (:func:`to_ns` in :mod:`aion_cli.api_time`, the readers of arguments in
-:mod:`aion_cli.api_checks`); the functions that make maps (:func:`build`,
-:func:`merge`, :func:`compact`) live in :mod:`aion_cli.api_make` and the query results
+:mod:`aion_cli.api_checks`, its :meth:`Map.plan` in :mod:`aion_cli.api_plan`); the functions
+that make maps (:func:`build`, :func:`merge`, :func:`compact`) live in
+:mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
 ``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports them, and
 ``aion_cli`` re-exports them with ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``
@@ -36,6 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, Union, overload
 
 from aion_cli import api_checks as check
+from aion_cli import api_plan
 from aion_cli.api_checks import (
     CountLike,
     NodesLike,
@@ -293,78 +295,7 @@ class Map(Generic[Report]):
         made = described(table, self._label, zone, labels, hour_flags(self._loaded, times))
         return replace(made, notes=tuple(self._notes(start, zone, times[0], times)))
 
-    @one_at_a_time
-    def plan(
-        self,
-        start: PlaceLike,
-        goal: PlaceLike,
-        *,
-        time: TimeLike | None = None,
-        tz: ZoneLike | None = None,
-        speed: float | None = None,
-        leave: PairOf[TimeLike] | None = None,
-        step: StepLike | None = None,
-    ) -> Plan:
-        """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
-        coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
-        the distance-only path beside it (``Plan.distance_only``), as ``aion plan``. With
-        ``leave=(earliest, latest)``: the best departure every ``step`` (as
-        :meth:`predict_series` takes it: ``"10m"``, ``"1d"``, seconds, a ``timedelta`` or a
-        ``numpy.timedelta64``; ``"10m"`` when not given) after ``earliest`` up to ``latest``,
-        which must be later, every departure's cost in ``Plan.departures`` (``--leave``);
-        ``step`` without ``leave`` is refused, as ``--step`` without ``--leave``."""
-        from dataclasses import replace
-
-        from aion_cli.mapquery import nav_graph
-        from aion_cli.predictions import hour_flags
-        from aion_cli.routes import plan_departures, plan_routes, resolve_ends
-
-        start, goal = check.endpoint(start, "start"), check.endpoint(goal, "goal")
-        if speed is not None and not 0.01 <= check.real(speed, "speed") <= 20.0:
-            raise InputError(
-                f"speed must be 0.01 .. 20 m/s, got {speed}", hint="a walking speed, e.g. 1.0"
-            )
-        if leave is not None and time is not None:
-            raise InputError(
-                "choose time or leave=(earliest, latest), not both",
-                hint="time= plans one departure; leave= finds the best between two times",
-            )
-        if step is not None and leave is None:
-            raise InputError("step needs leave", hint='e.g. leave=("08:00", "10:00"), step="10m"')
-        self._check_file()
-        t_ns, zone = self._time("now" if time is None else time, tz)
-        nav = nav_graph(self._loaded)
-        graph = self._loaded.graph
-        a, b = resolve_ends(start, goal, nav, graph)
-        snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
-        if leave is None:
-            routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
-            made = Plan.from_routes(routes, zone, snapped, hour_flags(self._loaded, [t_ns])[0])
-            return replace(made, notes=tuple(self._notes(time, zone, t_ns, None, "departures")))
-
-        from aion_cli.api_results import departure_rows
-        from aion_cli.prediction_series import series_times
-        from aion_cli.time_steps import parse_step
-
-        every = parse_step(check.step("10m" if step is None else step), "step")
-        first, last = check.pair(leave, "leave", "earliest, latest")
-        earliest = self._time(first, tz)[0]
-        latest = self._time(last, tz, after_ns=earliest)[0]
-        if latest < earliest:  # as --leave START..END; (T, T) is the one departure T
-            raise InputError(
-                "leave: the latest departure is before the earliest",
-                hint="give leave=(earliest, latest) with latest later (or the same, for one)",
-            )
-        times = series_times(
-            earliest, latest, every, zone, ("leave[0]", "leave[1]"), "departures", first
-        )
-        observed = hour_flags(self._loaded, times)
-        plans, best = plan_departures(
-            self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
-        )
-        made = Plan.from_routes(plans[best], zone, snapped, observed[best])
-        notes = tuple(self._notes(None, zone, times[best], times, "departures"))
-        return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
+    plan = api_plan.plan  # a path, or the best departure (aion_cli.api_plan)
 
     @one_at_a_time
     def export(
