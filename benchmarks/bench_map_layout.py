@@ -9,8 +9,9 @@ against the stored one (docs/BENCHMARKS.md, stop 67):
 * **duplicate rows** — stored rows byte-equal to another one (pairs of one detection in the
   same window);
 * **deflate** — zip deflate (zlib level 6) of the Fourier members only, and of every member
-  where it saves at least a quarter (reported, not written: aion's members are stored and
-  aligned so that a query maps them in place);
+  where it saves at least a quarter within the readers' limit on expansion (not what aion
+  writes: its members are stored and aligned so that a query maps them in place;
+  :func:`deflated_copy` writes such a copy of a map, for timing queries on it);
 * **window lists** — a pair's sums are Σ_w n_w e^{iω t_w} over the windows it counted
   detections in: a pair holding (window ``uint32``, count ``uint16``) per such window and a
   4-byte offset, where cheaper than its K sums, gives them back to rounding. The map keeps no
@@ -52,6 +53,31 @@ def _deflated(data: bytes) -> int:
     return len(zlib.compress(data, 6))
 
 
+def _pays(raw: int, deflated: int) -> bool:
+    """Whether deflating a member of ``raw`` bytes to ``deflated`` saves a quarter of it and
+    stays within what aion's readers accept (``formats.mapfile_format``: a member above
+    ``RATIO_MIN_BYTES`` may expand at most ``DEFAULT_MAX_RATIO`` times; 90 here)."""
+    from aion_cli.formats.mapfile_format import DEFAULT_MAX_RATIO, RATIO_MIN_BYTES
+
+    bounded = raw <= RATIO_MIN_BYTES or raw <= 0.9 * DEFAULT_MAX_RATIO * deflated
+    return deflated <= 0.75 * raw and bounded
+
+
+def deflated_copy(source: Path, target: Path) -> tuple[int, int]:
+    """``source`` rewritten with every member deflated where :func:`_pays`, the others stored
+    (aion reads deflated members: ``formats/MAPFILE.md``); the two files' sizes."""
+    import zipfile
+
+    with zipfile.ZipFile(source) as zin, zipfile.ZipFile(target, "w", allowZip64=True) as zout:
+        for info in zin.infolist():
+            data = zin.read(info.filename)
+            member = info.filename != "manifest.json"
+            pays = member and _pays(len(data), _deflated(data))
+            method = zipfile.ZIP_DEFLATED if pays else zipfile.ZIP_STORED
+            zout.writestr(info.filename, data, compress_type=method)
+    return source.stat().st_size, target.stat().st_size
+
+
 def _duplicate_share(rows: np.ndarray) -> float:
     """Share of the rows byte-equal to an earlier row."""
     if rows.shape[0] == 0:
@@ -86,7 +112,7 @@ def layout_figures(path: Path) -> dict[str, Any]:
     fourier_names = ("temporal_cnt_fourier", "temporal_obs_fourier")
     fourier_saved = sum(member_bytes[n] - min(deflated[n], member_bytes[n]) for n in fourier_names)
     where_it_pays = sum(
-        b - deflated[n] for n, b in member_bytes.items() if deflated[n] <= 0.75 * b
+        b - deflated[n] for n, b in member_bytes.items() if _pays(b, deflated[n])
     )
     lowest = np.count_nonzero(counts, axis=1)  # windows with detections, at least
     highest = detections.astype(np.int64)  # and at most
@@ -105,8 +131,9 @@ def layout_figures(path: Path) -> dict[str, Any]:
         "duplicate_obs_rows": _duplicate_share(observed),
         "pairs_of_one_detection": float(np.mean(detections == 1)) if detections.size else 0.0,
         "deflate_fourier_saves": fourier_saved / size,
-        "cnt_fourier_deflated_ratio": deflated["temporal_cnt_fourier"]
-        / max(member_bytes["temporal_cnt_fourier"], 1),
+        "cnt_fourier_deflated_ratio": deflated["temporal_cnt_fourier"] / fourier.nbytes
+        if fourier.nbytes
+        else None,
         "deflate_where_it_pays_saves": where_it_pays / size,
         "window_lists_save_at_most": (
             fourier.nbytes - histogram_bytes(lowest, periods, WINDOW_BYTES)

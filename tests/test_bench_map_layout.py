@@ -50,3 +50,26 @@ def test_window_lists_give_the_sums_back_and_week_slots_do_not() -> None:
     assert figures["window_list_largest_relative_difference"] < 1e-12
     assert figures["slot_histogram_largest_relative_difference"] > 1e-9
     assert figures["window_list_bytes_per_entry"] < figures["cnt_fourier_bytes_per_entry"]
+
+
+def test_a_deflated_copy_reads_as_the_map(tmp_path: Path) -> None:
+    """The copy :func:`deflated_copy` writes holds the same arrays, its zero-heavy members
+    deflated (smaller) and its noise-like Fourier sums stored, and aion reads it."""
+    import zipfile
+
+    from aion_cli.formats.mapfile import read_map
+    from benchmarks.bench_build_scale import write_query_map
+    from benchmarks.bench_map_layout import deflated_copy
+
+    path, copy = tmp_path / "bench.aion", tmp_path / "deflated.aion"
+    write_query_map(1000, path)
+    before, after = deflated_copy(path, copy)
+    assert after < before
+    with zipfile.ZipFile(copy) as zf:
+        kinds = {i.filename: i.compress_type for i in zf.infolist()}
+    assert kinds["temporal_cnt_fourier.npy"] == zipfile.ZIP_STORED
+    assert kinds["entry_window_counts.npy"] == zipfile.ZIP_DEFLATED  # zeros but the open window
+    ours, theirs = read_map(path)[0], read_map(copy)[0]
+    assert set(ours) == set(theirs)
+    for name in ours:
+        np.testing.assert_array_equal(ours[name], theirs[name], err_msg=name)
