@@ -1,7 +1,8 @@
 """What an earlier export left in a folder that a new one must not keep beside its own files
 (no click or rich here): the scene parts a new export does not write, which it would leave
 standing (:func:`drop_stale_parts`: a path, the nodes of another map), and the frames of an
-earlier, longer series that a new series does not write (:func:`drop_stale_frames`).
+earlier, longer series that a new series does not write (:func:`drop_stale_frames`, and
+:func:`stale_note`, what the command and the API say of them).
 
 Only files an export itself wrote go: every export into a folder records the files it wrote
 (their path in the folder, size and sha256) in the folder's hidden
@@ -110,6 +111,29 @@ def drop_stale_frames(out_dir: Path, frames: Collection[str], owned: Written) ->
             folder.rmdir()
             stale.removed.append(folder)
     return stale
+
+
+def stale_note(stale: StaleFrames, out: Path) -> str | None:
+    """What :func:`drop_stale_frames` removed from ``out``, as ``aion export`` notes it and
+    ``Map.export`` returns it in its ``notes`` (plain text; None when it removed nothing):
+    the frames gone, and the frame folders kept for files aion did not write."""
+    gone = [p.name for p in stale.removed]
+    kept = [p.name for p in stale.kept]
+    parts = []
+    if gone:
+        span = gone[0] if len(gone) == 1 else f"{gone[0]} to {gone[-1]}"
+        parts.append(f"{len(gone)} frame(s) ({span})")
+    if kept:
+        shown = ", ".join(kept[:3]) + (", ..." if len(kept) > 3 else "")
+        parts.append(
+            f"aion's files of {len(kept)} more, which keep the files aion did not write "
+            f"({shown})"
+        )
+    if not parts:
+        return None
+    return f"removed from {out} what an earlier series wrote for times this one has not: " + (
+        "; ".join(parts)
+    )
 
 
 def drop_stale_parts(

@@ -23,7 +23,6 @@ from aion_cli.cli.output import AionCommand
 from aion_cli.number_text import counted
 
 if TYPE_CHECKING:
-    from aion_cli.export_stale import StaleFrames
     from aion_cli.exports import Exported
 
 EPILOG = """\b
@@ -153,6 +152,7 @@ def command(
     from aion_cli.cli.console import console, note, progress, warn
     from aion_cli.cli.plan import snapped_text
     from aion_cli.errors import InputError
+    from aion_cli.export_stale import stale_note
     from aion_cli.exports import export_format, path_ends, scene_file, write_export
     from aion_cli.formats.dsg_export import not_stored_note
     from aion_cli.graph_export import cells_left_out
@@ -226,8 +226,8 @@ def command(
     if historical and ends is not None:
         note(HISTORICAL_PATH)
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
-    if written.stale is not None and (written.stale.removed or written.stale.kept):
-        note(_stale_note(written.stale, out_dir))
+    if written.stale is not None and (said := stale_note(written.stale, out_dir)) is not None:
+        note(said)
     if written.graph is not None:
         note(not_stored_note(loaded.graph.layer_name))
         left_out = cells_left_out(loaded)
@@ -265,22 +265,3 @@ def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:
     if scene_file(fmt, out):
         return f"wrote {markup_safe(out)} (the whole scene in one {fmt} file)"
     return f"wrote {len(written.files)} file(s) to {markup_safe(out)}"
-
-
-def _stale_note(stale: StaleFrames, out: Path) -> str:
-    """What :func:`aion_cli.export_stale.drop_stale_frames` removed from ``out`` (plain text)."""
-    gone = [p.name for p in stale.removed]
-    kept = [p.name for p in stale.kept]
-    parts = []
-    if gone:
-        span = gone[0] if len(gone) == 1 else f"{gone[0]} to {gone[-1]}"
-        parts.append(f"{len(gone)} frame(s) ({span})")
-    if kept:
-        shown = ", ".join(kept[:3]) + (", ..." if len(kept) > 3 else "")
-        parts.append(
-            f"aion's files of {len(kept)} more, which keep the files aion did not write "
-            f"({shown})"
-        )
-    return f"removed from {out} what an earlier series wrote for times this one has not: " + (
-        "; ".join(parts)
-    )
