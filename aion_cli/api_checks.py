@@ -159,9 +159,16 @@ def point(at: object, what: str = "at") -> str | None:
 
 def _not_a_point(at: object, what: str) -> InputError:
     return InputError(
-        f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}",
-        hint='e.g. at=(3.5, -1.0) or at="3.5,-1.0"',
+        f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}", hint=_point_hint(what)
     )
+
+
+def _point_hint(what: str) -> str:
+    """An example of a point given as ``what`` (``at``, a plan's ``start`` / ``goal``, one end
+    of an export's or a picture's ``path``), in that argument's own form."""
+    if what == "path":  # path=(start, goal): the point is one of the two
+        return 'e.g. path=((3.5, -1.0), "p2") or path=("3.5,-1.0", "p2")'
+    return f'e.g. {what}=(3.5, -1.0) or {what}="3.5,-1.0"'
 
 
 def pair(value: object, what: str, names: str) -> tuple[Any, Any]:
@@ -386,7 +393,8 @@ def endpoint(node: object, what: str) -> str | int:
         if not 0 <= int(node) < 1 << 64:  # node ids are uint64
             raise InputError(
                 f"{what} must be a node id (0 .. 2**64 - 1), a room name or a point, "
-                f"got {node!r}"
+                f"got {node!r}",
+                hint=f'a place\'s id ("p12") or NodeSymbol value; a point: {_point_hint(what)}',
             )
         return int(node)
     where = point(node, what)
