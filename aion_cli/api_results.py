@@ -30,12 +30,20 @@ the map and its results, an export's and a picture's label; in ``<...>``, as Pyt
 
 @dataclass(frozen=True)
 class Table:
-    """Flows per entry at one time (or as observed): the records of ``aion predict``.
+    """Flows per entry at one time (or as observed): the records of ``aion predict``, a value
+    that needs no map once made, to keep, compare or hand to another process.
 
-    ``time_ns`` is None for a historical table; ``entries`` are the records, busiest first,
-    with the fields of ``aion predict --format json`` (``id``, ``kind``, ``x`` .. ``flow``,
-    ``histogram``, ``family`` ...). Equal tables compare equal (``==``); a table is not
-    hashable (its records are dicts), as a :class:`Plan` and a series are not."""
+    ``time_ns`` is the time asked for in UNIX nanoseconds (UTC), None for a historical table;
+    ``time`` the same time as text in ``zone`` (the zone's name); ``bins`` the direction bins of
+    a full turn (each ``360 / bins`` degrees). ``entries`` are the records, busiest first,
+    with the fields of ``aion predict --format json``: ``x``, ``y``, ``z`` in metres in the
+    map frame, ``flow`` in expected detections per window of the map (``window_s``, 600 s
+    by default) and ``flow_per_hour`` per hour (detections, not people: a faster tracker
+    counts more), ``direction_deg`` the busiest direction bin's, in degrees
+    counter-clockwise from +x, ``mean_speed`` and ``speed_per_bin`` in m/s, ``histogram``
+    each direction bin's probability (:mod:`aion_cli.predictions` lists every field).
+    Equal tables compare equal (``==``); a table is not hashable (its records are dicts), as
+    a :class:`Plan` and a series are not."""
 
     __hash__ = None  # type: ignore[assignment]  # not the fields' hash: an empty table's was
 
@@ -99,10 +107,16 @@ class Table:
 
 @dataclass(frozen=True)
 class Plan:
-    """A planned path (``aion plan``): node labels, length, walking time, temporal cost and
-    arrival times; ``distance_only`` is the shortest path beside it, with the temporal cost
-    it would have had. Equal plans compare equal (``==``); a plan is not hashable (its nodes
-    and records are lists and dicts), as a :class:`Table` is not."""
+    """A planned path (``aion plan``): node labels (``nodes``), ``length_m`` (metres),
+    ``duration_s`` (seconds of walking at ``speed_mps``, m/s), ``cost`` and the arrival at
+    each node (``arrival``: text in ``zone`` to the millisecond; ``arrival_ns``: UNIX
+    nanoseconds); ``depart`` / ``depart_ns`` the departure alike. ``cost`` is the paper's
+    ``d + (c_t + c_d) * d`` summed over the path's edges of ``d`` metres
+    (:mod:`aion_cli.engine.planning`): metres weighted by
+    how busy and how opposed each step is, so a path nobody walks costs its length and costs
+    compare between paths of one map. ``distance_only`` is the shortest path beside it, with
+    the temporal cost it would have had. Equal plans compare equal (``==``); a plan is not
+    hashable (its nodes and records are lists and dicts), as a :class:`Table` is not."""
 
     __hash__ = None  # type: ignore[assignment]
 

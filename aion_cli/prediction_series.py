@@ -45,10 +45,13 @@ SERIES_CSV_KEYS = [
 
 @dataclass(frozen=True, eq=False)
 class SeriesTable:
-    """The chosen entries (``entries``: id, name, kind, layer, x, y, z records; ``name`` the
-    scene graph's room or building name, else None) and their predicted
-    ``flow`` and ``flow_per_hour`` (float64[E, T], NaN where unknown) at ``times_ns``; how
-    many entries matched before ``top``."""
+    """The chosen entries (``entries``: id, name, kind, layer, x, y, z records, x, y, z in
+    metres in the map frame; ``name`` the scene graph's room or building name, else None) and
+    their predicted ``flow`` (expected detections per window of the map, ``window_s``) and
+    ``flow_per_hour`` (per hour), float64[E, T] arrays, NaN where unknown, at ``times_ns``
+    (UNIX nanoseconds, UTC); how many entries matched before ``top`` (``matched``). One
+    array for the whole series, not a table per time: a day of 10^5 entries is a block a
+    script slices (``flow[:, k]`` is the time ``k``, equal to ``Map.predict`` then)."""
 
     times_ns: list[int]
     entries: list[dict[str, Any]]
