@@ -8,10 +8,10 @@ import click
 
 from aion_cli.cli.common import AionPath, detections_mapping_option, log_format_option
 from aion_cli.cli.graph_options import nav_layer_option
-from aion_cli.cli.info_log import describe, suggest
 from aion_cli.cli.info_map import describe_map, print_map, verify_map
 from aion_cli.cli.info_table import print_report
 from aion_cli.cli.output import format_option, to_json
+from aion_cli.log_report import describe, report_zone, suggest
 
 EPILOG = """\b
 Examples:
@@ -188,13 +188,7 @@ def command(
     if suggest_topic is not None:
         click.echo(suggest(list(logs), log_format, suggest_topic), nl=False)
         return
-    from aion_cli.timeparse import resolve_zone
-
-    zone = "UTC" if tz is None else resolve_zone(tz).name  # a bad zone: before any reading
-    if tz is None:  # the zone aion build follows without --tz: the one the logs declare
-        from aion_cli.log_zone import build_zone
-
-        zone = build_zone(None, None, list(logs))[0] or "UTC"
+    zone = report_zone(tz, list(logs))  # a bad zone: before any reading
     report = describe(list(logs), log_format, detections_mapping, zone, verify)
     if fmt == "json":
         click.echo(to_json(report))

@@ -1,36 +1,14 @@
-"""``aion info LOG``: what the log's TF says about frames -- detection frames it does not join
-to ``map`` (and the top of their tree, the ``--map-frame`` to build in), transforms a build
-ignores, a robot that moves without ``base_link`` -- into the report, and its notes.
+"""``aion info LOG``: the notes on what the log's TF says about frames -- detection frames it
+does not join to ``map``, with the ``--map-frame`` to build in (the top of their tree).
 
-Split from :mod:`aion_cli.cli.info`; the command there calls these. The reading is
-:func:`aion_cli.frame_check.unconnected_frames`.
+Split from :mod:`aion_cli.cli.info`; the command there prints them. The report's
+``frames_without_tf`` and ``tf_roots`` are :func:`aion_cli.log_report.add_frames`'; the
+reading is :func:`aion_cli.frame_check.unconnected_frames`.
 """
 
 from __future__ import annotations
 
 from typing import Any
-
-
-def add_frames(
-    report: dict[str, Any], logset: Any, plan: Any, mappings: list[Any], robot_poses_elsewhere: bool
-) -> None:
-    """``frames_without_tf``, ``tf_roots`` and the TF warnings into ``report`` (and, for a fixed
-    sensor, how many of the detection messages sampled held nobody; how a Marker topic is
-    read, into ``plan``'s reasons: the topic's ``why``); the warning on
-    a robot without ``base_link`` only when no scene graph gives robot poses
-    (``robot_poses_elsewhere``: the build would observe with those)."""
-    from aion_cli.frame_check import unconnected_frames
-
-    frames = unconnected_frames(logset, plan, mappings)
-    for topic, text in frames.read_as.items():  # how a Marker topic is read: in its `why`
-        plan.reasons[topic] = f"{plan.reasons.get(topic, 'detections')}; {text}"
-    report["frames_without_tf"] = frames.apart
-    report["tf_roots"] = frames.roots
-    report["warnings"].extend(frames.warnings)
-    if report.get("fixed_sensor") is not None:  # a silent tracker publishes no empty message
-        report["fixed_sensor"]["empty_in_first_messages"] = frames.empty_messages
-    if frames.no_robot is not None and not robot_poses_elsewhere:
-        report["warnings"].append(frames.no_robot)
 
 
 def print_frame_notes(report: dict[str, Any]) -> None:

@@ -1,7 +1,11 @@
-"""``aion info LOG``: the report of logs -- what is in them and what ``aion build`` will use
-from them (:func:`describe`) -- and ``--suggest-mapping`` (:func:`suggest`).
+"""``aion info LOG`` and ``aion.info``: the report of logs -- what is in them and what
+``aion build`` will use from them (:func:`describe`), in the zone :func:`report_zone` chooses,
+with what the log's TF says of the detections' frames (:func:`add_frames`) -- and
+``--suggest-mapping`` (:func:`suggest`).
 
-Split from :mod:`aion_cli.cli.info`; the command there calls these and prints the report.
+No click or rich here: the command (:mod:`aion_cli.cli.info`) prints the report, the Python
+API (:mod:`aion_cli.api_info`) returns it; both call these (moved from ``aion_cli/cli/`` so
+the API need not import the command line).
 """
 
 from __future__ import annotations
@@ -9,8 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
-from aion_cli.cli.info_frames import add_frames
 
 
 def describe(
@@ -95,6 +97,40 @@ def describe(
         report["mapping_example"] = example
     _own_scene(report)
     return report
+
+
+def report_zone(tz: str | None, paths: list[Path]) -> str:
+    """The zone the report of ``paths`` gives its times in: ``tz`` (checked before any log
+    is read), else the zone the logs declare (as ``aion build`` follows it), else UTC."""
+    from aion_cli.timeparse import resolve_zone
+
+    if tz is not None:
+        return resolve_zone(tz).name
+    from aion_cli.log_zone import build_zone
+
+    return build_zone(None, None, paths)[0] or "UTC"
+
+
+def add_frames(
+    report: dict[str, Any], logset: Any, plan: Any, mappings: list[Any], robot_poses_elsewhere: bool
+) -> None:
+    """``frames_without_tf``, ``tf_roots`` and the TF warnings into ``report`` (and, for a fixed
+    sensor, how many of the detection messages sampled held nobody; how a Marker topic is
+    read, into ``plan``'s reasons: the topic's ``why``); the warning on
+    a robot without ``base_link`` only when no scene graph gives robot poses
+    (``robot_poses_elsewhere``: the build would observe with those)."""
+    from aion_cli.frame_check import unconnected_frames
+
+    frames = unconnected_frames(logset, plan, mappings)
+    for topic, text in frames.read_as.items():  # how a Marker topic is read: in its `why`
+        plan.reasons[topic] = f"{plan.reasons.get(topic, 'detections')}; {text}"
+    report["frames_without_tf"] = frames.apart
+    report["tf_roots"] = frames.roots
+    report["warnings"].extend(frames.warnings)
+    if report.get("fixed_sensor") is not None:  # a silent tracker publishes no empty message
+        report["fixed_sensor"]["empty_in_first_messages"] = frames.empty_messages
+    if frames.no_robot is not None and not robot_poses_elsewhere:
+        report["warnings"].append(frames.no_robot)
 
 
 def _own_scene(report: dict[str, Any]) -> None:
