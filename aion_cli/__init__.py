@@ -7,6 +7,7 @@ The Python API (docs/API.md)::
     table = m.predict("2026-11-23 08:30")
     plan = m.plan("p12", "p87", time="2026-11-23 08:30")
     week = aion.merge(["monday.aion", "wednesday.aion"], "week.aion")
+    report = aion.info(["run.mcap"])   # aion info LOG --format json, before a map is made
 """
 
 __version__ = "0.1.0"
@@ -14,6 +15,7 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns
+from aion_cli.api_info import info
 from aion_cli.errors import AionError, AionWarning, InputError
 
 if TYPE_CHECKING:
@@ -66,6 +68,7 @@ __all__ = [
     "__version__",
     "build",
     "compact",
+    "info",
     "merge",
     "to_ns",
 ]
