@@ -67,3 +67,21 @@ def test_info_refuses_what_is_not_a_log(office: Office, tmp_path: Path) -> None:
     with pytest.raises(InputError, match="detection_topics") as unknown:
         aion.info(office.log, detection_topics=["/people"])  # type: ignore[call-arg]
     assert "info() takes: logs, log_format" in (unknown.value.hint or "")
+
+
+def test_the_documented_info_example_runs(tmp_path: Path) -> None:
+    """docs/API.md's ``aion.info`` example, as written, in a folder holding the sample log:
+    the report it prints from is the command's."""
+    import contextlib
+    import re
+
+    from tests.doc_blocks import run_blocks
+
+    repo = Path(__file__).resolve().parents[2]
+    blocks = re.findall(r"```python\n(.*?)```", (repo / "docs" / "API.md").read_text(), re.S)
+    (example,) = [b for b in blocks if "aion.info(" in b]
+    (tmp_path / "samples").mkdir()
+    shutil.copy(repo / "samples" / "office.mcap", tmp_path / "samples" / "office.mcap")
+    scope = run_blocks(tmp_path, "docs/API.md", example)
+    with contextlib.chdir(tmp_path):  # the files' paths as given: relative
+        assert scope["report"] == _cli(Path("samples") / "office.mcap")
