@@ -65,7 +65,8 @@ _COMMAND = re.compile(
 ``aion build --observed``): a command to run in a shell, whose options stay options (a
 keyword in the middle of it would make it neither a command nor Python)."""
 _NOT_VALUES = frozenset({
-    "and", "are", "beside", "below", "could", "given", "giving", "if", "ignored", "in", "is",
+    "and", "are", "beside", "below", "could", "for", "given", "giving", "if", "ignored", "in",
+    "is",
     "names", "naming", "needs", "of", "or", "read", "reads", "replaced", "said", "spans", "that",
     "takes", "to", "was", "were", "which", "with", "writes", "/",
 })  # fmt: skip

@@ -193,6 +193,14 @@ def path_ends(
     return nav, a.node_id, b.node_id
 
 
+HISTORICAL_PATH = (
+    "--historical has no time to forecast a path's costs at: the path drawn is the shortest "
+    "by distance (give --time for one that avoids busy, opposing flows)"
+)
+"""The note of a path drawn with ``--historical`` (:func:`planned_path`), which ``aion
+export`` prints and ``Map.export`` returns (in the API's words: ``historical=True``)."""
+
+
 def planned_path(loaded: Any, t_ns: int | None, ends: tuple[Any, int, int]) -> Any:
     """Positions f64[p,3] of the (temporal) path planned at ``t_ns`` between ``ends`` (from
     :func:`path_ends`); distance only for a historical export (``t_ns`` None)."""

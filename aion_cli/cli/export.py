@@ -153,7 +153,13 @@ def command(
     from aion_cli.cli.plan import snapped_text
     from aion_cli.errors import InputError
     from aion_cli.export_stale import stale_note
-    from aion_cli.exports import export_format, path_ends, scene_file, write_export
+    from aion_cli.exports import (
+        HISTORICAL_PATH,
+        export_format,
+        path_ends,
+        scene_file,
+        write_export,
+    )
     from aion_cli.formats.dsg_export import not_stored_note
     from aion_cli.graph_export import cells_left_out
 
@@ -233,13 +239,6 @@ def command(
         left_out = cells_left_out(loaded)
         if left_out is not None:
             (warn if left_out[1] else note)(left_out[0])
-
-
-HISTORICAL_PATH = (
-    "--historical has no time to forecast a path's costs at: the path drawn is the shortest "
-    "by distance (give --time for one that avoids busy, opposing flows)"
-)
-"""The note of a path drawn with ``--historical`` (:func:`aion_cli.exports.planned_path`)."""
 
 
 def _written(written: Exported, fmt: str, out: Path, steps: int) -> str:
