@@ -269,10 +269,15 @@ def departure_rows(
 
 class Files(list["Path"]):
     """The files :meth:`aion_cli.api.Map.export` wrote (a list of ``Path``, as before), with
-    the ``notes`` ``aion export`` prints beside them on stderr: for a scene graph
-    (``format="dsg"``) what of the source graph a map does not store, and the detections the
-    file leaves out when they are fewer than half (at least half is an
-    :class:`~aion_cli.errors.AionWarning`). A list, not a frozen value: it compares equal to
-    the list of the same paths."""
+    the ``notes`` ``aion export`` prints beside them on stderr, in its order: what the
+    forecast at the export's time (or its series' times) cannot say, as the ``notes`` of
+    ``Map.predict`` (or ``Map.predict_series``) then; that a path drawn with
+    ``historical=True`` is the shortest by distance; the frames of an earlier, longer series
+    a series removed from its folder (:func:`aion_cli.export_stale.stale_note`: a folder of
+    frames plays every frame it holds); for a scene graph (``format="dsg"``) what of the
+    source graph a map does not store, and the detections the file leaves out when they are
+    fewer than half (at least half is an :class:`~aion_cli.errors.AionWarning`). Notes, not
+    warnings: the files hold what was asked. A list, not a frozen value: it compares equal
+    to the list of the same paths."""
 
     notes: tuple[str, ...] = ()
