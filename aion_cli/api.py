@@ -325,11 +325,8 @@ class Map(Generic[Report]):
         ``aion export --from --to --step`` (a folder per time, or one MCAP file to scrub).
         The list returned is a :class:`~aion_cli.api_results.Files` whose ``notes`` are
         those ``aion export`` prints (a scene graph's: what a map does not store)."""
-        from aion_cli.api_export import export_target, refuse_combination
-        from aion_cli.api_make import warn_of
+        from aion_cli.api_export import export_target, refuse_combination, written_notes
         from aion_cli.exports import write_export
-        from aion_cli.formats.dsg_export import not_stored_note
-        from aion_cli.graph_export import cells_left_out
 
         out = as_path(folder)
         format = export_target(format, out)
@@ -344,12 +341,13 @@ class Map(Generic[Report]):
             force=force,
         )
         files = Files(written.files)
-        if written.graph is not None and (graph := self._loaded.graph) is not None:
-            left_out = cells_left_out(self._loaded, "format='ply' or Map.picture")
-            said, most = ([], False) if left_out is None else ([left_out[0]], left_out[1])
-            notes = [not_stored_note(graph.layer_name)] + ([] if most else said)
-            warn_of(said if most else [], notes)
-            files.notes = tuple(notes)
+        first = times[0]  # the forecast's notes first, as the command prints them
+        forecast = [] if zone is None or first is None else self._notes(
+            time if series is None else series[0], zone, first,
+            None if series is None else [t for t in times if t is not None],
+        )  # fmt: skip
+        drawn = historical and ends is not None
+        files.notes = (*forecast, *written_notes(self._loaded, written, out, drawn))
         return files
 
     @one_at_a_time
