@@ -143,6 +143,8 @@ def test_the_readme_python_example_runs(tmp_path: Path) -> None:
     assert scope["day"].flow.shape[1] == 15
     assert scope["score"].headings
     assert isinstance(scope["robot"], aion.Map)
+    # aion.info: the log's report, which names the detection topic the build used
+    assert scope["log"]["will_use"]["detections"] == scope["m"].report.to_dict()["detection_topics"]
 
 
 def test_the_api_module_names_every_name_the_package_exports() -> None:
