@@ -25,7 +25,8 @@ that make maps (:func:`build`, :func:`merge`, :func:`compact`) live in
 :mod:`aion_cli.api_make` and the query results
 :class:`Table` and :class:`Plan` in :mod:`aion_cli.api_results`; both are re-exported here, so
 ``from aion_cli.api import Map, Plan, Table, build, compact, merge, to_ns`` imports them, and
-``aion_cli`` re-exports them with ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``
+``aion_cli`` re-exports them with ``info`` (``aion info LOG``'s report, from
+:mod:`aion_cli.api_info`), ``SeriesTable``, ``AionError``, ``InputError``, ``AionWarning``
 and the types of the other results, each by the name its repr gives (``BuildReport``,
 ``MergeReport``, ``CompactReport``, ``HoldoutResult``, ``Manifest``).
 """
