@@ -382,7 +382,9 @@ class Map(Generic[Report]):
         """This map's forecast scored on held-out logs, read as ``aion build`` would read
         them into it (as ``aion evaluate holdout``): ``result.headings`` (heading NLL per
         model), ``result.activity`` (hourly Spearman, Poisson deviance, MAE), ``result.series``,
-        ``result.notes``, ``result.to_dict()`` (its JSON). ``options``: the build's reading
+        ``result.notes``, ``result.to_dict()`` (its JSON). ``radius``: how near, in metres, a
+        held-out detection must lie to an entry of the map to be scored on it (``--radius``;
+        a positive number). ``options``: the build's reading
         options, as :func:`build` takes them (``detection_topics``, ``observed`` spans,
         ``map_frame``: default the frame the map records, else ``map``; ``base_frame``,
         ``graph_topic``, ``log_format``, ``detections_mapping``)."""

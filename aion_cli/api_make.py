@@ -159,9 +159,10 @@ def build(
     scene graph per period of log time (``"5s"``, ``"1m"``, seconds, a ``timedelta`` or a
     ``numpy.timedelta64``; 0:
     every graph; None: 5 s), as ``--graph-period``; ``dsg_version`` (``"1.1.3"``) and
-    ``batch_size`` as ``--dsg-version`` and ``--batch-size``. ``lineage`` (auto / same /
-    different): whether ``graph``, else the logs' first scene graph, is of
-    ``continue_from``'s scene-graph session, as ``--lineage``."""
+    ``batch_size`` (detection messages decoded per chunk; another size
+    may change the map's sums in their last bits) as ``--dsg-version`` and ``--batch-size``.
+    ``lineage`` (auto / same / different): whether ``graph``, else the logs' first scene
+    graph, is of ``continue_from``'s scene-graph session, as ``--lineage``."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import count, flag, text, zone_name
     from aion_cli.build_options import map_frame_of

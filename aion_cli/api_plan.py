@@ -31,14 +31,18 @@ def plan(
     leave: PairOf[TimeLike] | None = None,
     step: StepLike | None = None,
 ) -> Plan:
-    """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms ``"R3"`` or
-    coordinates ``"x,y"``) departing at ``time``, avoiding busy and opposing flows, with
-    the distance-only path beside it (``Plan.distance_only``), as ``aion plan``. With
-    ``leave=(earliest, latest)``: the best departure every ``step`` (as
+    """A path from ``start`` to ``goal`` (node ids ``"p12"``, rooms or buildings by id or
+    name, ``"R3"``, ``"kitchen"``, or coordinates ``"x,y"`` in metres in the map frame,
+    which snap to the nearest place: ``Plan.snapped``) departing at ``time`` (default now),
+    avoiding busy and opposing flows, with the distance-only path beside it
+    (``Plan.distance_only``), as ``aion plan``. ``speed``: the walking speed in m/s (0.01 ..
+    20; None: the map's ``plan_speed``), which times the arrival at each place, where its
+    forecast is read. With ``leave=(earliest, latest)``: the best departure every ``step`` (as
     :meth:`predict_series` takes it: ``"10m"``, ``"1d"``, seconds, a ``timedelta`` or a
-    ``numpy.timedelta64``; ``"10m"`` when not given) after ``earliest`` up to ``latest``,
-    which must be later, every departure's cost in ``Plan.departures`` (``--leave``);
-    ``step`` without ``leave`` is refused, as ``--step`` without ``--leave``."""
+    ``numpy.timedelta64``; ``"10m"`` when not given) from ``earliest`` up to ``latest``,
+    which must not be earlier (``(T, T)`` is the one departure T), every departure's cost
+    in ``Plan.departures`` (``--leave``); ``step`` without ``leave`` is refused, as
+    ``--step`` without ``--leave``."""
     from dataclasses import replace
 
     from aion_cli.mapquery import nav_graph
