@@ -419,10 +419,13 @@ def graph_source(
     start: int,
     derive: Callable[[], GraphSnapshot],
     graph_topics_at_once: Callable[[], list[str]],
+    graph_streams_at_once: Callable[[], tuple[str, list[str]] | None],
 ) -> GraphSnapshot | None:
     """Where the map's graph comes from, in this order: ``--graph FILE`` (the log's scene
     graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`;
-    refused when ``graph_topics_at_once`` names topics whose graphs would take turns), the
+    refused when ``graph_topics_at_once`` names topics whose graphs would take turns, or
+    ``graph_streams_at_once`` a topic that robots recording at once both carry:
+    :mod:`aion_cli.graph_owners`), the
     continued map's graph (``continued_graph``), ``--derive-graph`` (``derive``: where people
     walk), else none (flows on hash cells). Says which in ``report.graph_source`` (with the
     options that had no effect as notes) and returns the graph added once at ``start``, the
@@ -442,6 +445,10 @@ def graph_source(
         return loaded.snapshot
     if len(plan.graph) > 1 and (clash := graph_topics_at_once()):
         raise several_graph_topics(clash)
+    if plan.graph and (robots := graph_streams_at_once()) is not None:
+        from aion_cli.graph_owners import graphs_at_once_error
+
+        raise graphs_at_once_error(*robots)
     if plan.graph:
         report.graph_source = "log"
         report.graph_topics = sorted(plan.names("graph"))

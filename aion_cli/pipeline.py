@@ -74,6 +74,7 @@ from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
 from aion_cli.formats.log_overlaps import topics_at_once
 from aion_cli.graph_feed import GraphFeed, graph_source
+from aion_cli.graph_owners import graph_streams_at_once
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
 from aion_cli.log_order import overlap_warnings
@@ -438,6 +439,7 @@ class _Build(StreamStep):
             start=start,
             derive=lambda: self._derive(logset, plan, tf, config, start),
             graph_topics_at_once=lambda: topics_at_once(logset, plan.names("graph")),
+            graph_streams_at_once=lambda: graph_streams_at_once(logset, plan.names("graph")),
         )
 
     def _span(self) -> int | None:

@@ -1,0 +1,87 @@
+"""Whose scene graph a build's map takes: robots recording at the same time in one build
+(``aion build robot1.mcap robot2.mcap``) each publish their own Hydra graph on the same topic
+(``/hydra/backend/dsg``), and a map holds one graph. Merged by time into one stream, each
+robot's graph replaced the other's at every message: every graph was decoded anew (the bytes
+differ from the graph before), the places of one session moved to the other's positions and
+back with every message (another Hydra session numbers its places from p0 again, elsewhere),
+and the map kept whichever robot's graph came last in time.
+
+The rule (:func:`graph_streams_at_once`, as :mod:`aion_cli.tf_trees` decides whose TF tree
+and :mod:`aion_cli.track_owners` whose tracks): on a scene-graph topic, recordings (a path
+given; the storage files of one rosbag2 bag are one recording) whose files holding that topic
+span a time another such recording's overlap are two graph streams at once, and the build
+refuses them (:func:`graphs_at_once_error`) rather than let them take turns. The map the user
+wants is the one ``aion merge`` gives of each robot's own map (its lineage rule decides whether
+the two graphs are one session, whose node entries add by id, or two, whose flows bind to the
+newest map's graph); a build of both logs would have to pick one graph and rebind the other
+robot's flows as the merge does, which it cannot do while streaming. ``--graph FILE`` (one
+graph for the whole fleet) builds them at once, the logs' graphs ignored.
+
+Recordings of one topic one after the other (one robot's logs: ``rosbag record --split``
+files, days) are one stream in time order, a later graph replacing an earlier one as in one
+file; a recording split by topic (the graphs in one log, the detections or ``/tf`` in
+another) has one stream. Both build as before the rule.
+
+Overlapping recordings always build in one shard of a parallel build (a shard is a group of
+logs that overlap or touch), so a shard refuses them as one pass does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from aion_cli.errors import InputError, path_word
+from aion_cli.tf_trees import overlapping
+
+__all__ = ["graph_streams_at_once", "graphs_at_once_error"]
+
+
+def graph_streams_at_once(logset: Any, topics: Iterable[str]) -> tuple[str, list[str]] | None:
+    """The first scene-graph topic of ``topics`` (sorted) that recordings of ``logset``
+    (:meth:`formats.logs.LogSet.recording_times`, by the logs' indexes) carry over times that
+    overlap, with those recordings' paths (each one's first file; the folder of a rosbag2
+    bag's storage files); None when no two recordings of any topic overlap."""
+    for topic in sorted(topics):
+        found = overlapping(logset.recording_times([topic]))
+        if found:
+            return topic, [_recording_path(logset, key) for key in found]
+    return None
+
+
+def _recording_path(logset: Any, key: int) -> str:
+    """The path recording ``key`` of ``logset`` was read from: its file's, or the folder
+    holding a rosbag2 bag's several storage files."""
+    files = [f.path for r, f in zip(logset.recordings, logset.files, strict=True) if r == key]
+    return str(files[0] if len(files) == 1 else files[0].parent)
+
+
+def graphs_at_once_error(topic: str, paths: list[str]) -> InputError:
+    """The refusal of logs of robots recording at once that carry scene graphs on ``topic``:
+    their graphs would take turns as the map's graph; the hint tells how to build their map
+    (each robot's map, then ``aion merge``) or give one graph for all (``--graph FILE``)."""
+    words = [path_word(p) for p in paths]
+    maps = [path_word(m) for m in _map_names(paths)]
+    builds = "; ".join(f"aion build {w} -o {m}" for w, m in zip(words, maps, strict=True))
+    return InputError(
+        f"{len(paths)} logs carry scene graphs on {topic} at the same time "
+        f"({', '.join(paths)}): robots recording at once, whose graphs would take turns as "
+        "the map's graph; nothing was built",
+        hint=(
+            f"build each robot's map and merge them ({builds}; aion merge "
+            f"{' '.join(maps)} -o fleet.aion), or build on one graph with --graph FILE"
+        ),
+    )
+
+
+def _map_names(paths: list[str]) -> list[str]:
+    """A map file name of its own per robot log of ``paths``: the log's name as ``.aion``
+    (``robot1.mcap`` -> ``robot1.aion``), numbered where two logs share a name (a fleet whose
+    robots each write ``run.mcap`` in a folder of their own)."""
+    from pathlib import Path
+
+    stems = [Path(p).stem or "robot" for p in paths]
+    return [
+        f"{stem}.aion" if stems.count(stem) == 1 else f"{stem}{k + 1}.aion"
+        for k, stem in enumerate(stems)
+    ]
