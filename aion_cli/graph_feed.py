@@ -424,8 +424,8 @@ def graph_source(
     """Where the map's graph comes from, in this order: ``--graph FILE`` (the log's scene
     graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`;
     refused when ``graph_topics_at_once`` names topics whose graphs would take turns, or
-    ``graph_streams_at_once`` a topic that robots recording at once both carry:
-    :mod:`aion_cli.graph_owners`), the
+    ``graph_streams_at_once`` a topic on which robots recording at once carry graphs of other
+    sessions: :mod:`aion_cli.graph_owners`), the
     continued map's graph (``continued_graph``), ``--derive-graph`` (``derive``: where people
     walk), else none (flows on hash cells). Says which in ``report.graph_source`` (with the
     options that had no effect as notes) and returns the graph added once at ``start``, the

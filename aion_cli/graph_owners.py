@@ -9,13 +9,18 @@ and the map kept whichever robot's graph came last in time.
 The rule (:func:`graph_streams_at_once`, as :mod:`aion_cli.tf_trees` decides whose TF tree
 and :mod:`aion_cli.track_owners` whose tracks): on a scene-graph topic, recordings (a path
 given; the storage files of one rosbag2 bag are one recording) whose files holding that topic
-span a time another such recording's overlap are two graph streams at once, and the build
-refuses them (:func:`graphs_at_once_error`) rather than let them take turns. The map the user
-wants is the one ``aion merge`` gives of each robot's own map (its lineage rule decides whether
-the two graphs are one session, whose node entries add by id, or two, whose flows bind to the
-newest map's graph); a build of both logs would have to pick one graph and rebind the other
-robot's flows as the merge does, which it cannot do while streaming. ``--graph FILE`` (one
-graph for the whole fleet) builds them at once, the logs' graphs ignored.
+span a time another such recording's overlap are graph streams at once. When their first
+graphs with places are of one scene-graph session (``aion merge``'s lineage test,
+:func:`aion_cli.engine.rebind.graph_agreement`: more than half of the place ids both hold lie
+within ``bind_radius`` of each other: robots sharing one multi-robot graph, or one recording
+twice) they are one stream, as before the rule. Otherwise (another session's places, no
+shared id, a recording none of whose first :data:`FIRST_GRAPHS` graphs decodes with places)
+the build refuses them (:func:`graphs_at_once_error`) rather than let them take turns. The
+map the user wants is the one ``aion merge`` gives of each robot's own map (its lineage rule
+finds two sessions there too, and binds the flows to the newest map's graph); a build of both
+logs would have to pick one graph and rebind the other robot's flows as the merge does, which
+it cannot do while streaming. ``--graph FILE`` (one graph for the whole fleet) builds them at
+once, the logs' graphs ignored.
 
 Recordings of one topic one after the other (one robot's logs: ``rosbag record --split``
 files, days) are one stream in time order, a later graph replacing an earlier one as in one
@@ -28,24 +33,74 @@ logs that overlap or touch), so a shard refuses them as one pass does.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Callable, Iterable
+from itertools import islice
+from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError, path_word
 from aion_cli.tf_trees import overlapping
 
-__all__ = ["graph_streams_at_once", "graphs_at_once_error"]
+if TYPE_CHECKING:
+    from aion_cli.engine.types import GraphSnapshot
+    from aion_cli.formats.raw import RawMessage
+
+__all__ = ["FIRST_GRAPHS", "graph_streams_at_once", "graphs_at_once_error"]
+
+#: a recording's first graph messages tried for one that decodes with places
+FIRST_GRAPHS = 10
+
+#: a scene-graph message decoded apart from the stream (None: damaged or partial), as
+#: :meth:`aion_cli.graph_feed.GraphFeed.peek` decodes it
+Peek = Callable[[Any, "RawMessage"], "GraphSnapshot | None"]
 
 
-def graph_streams_at_once(logset: Any, topics: Iterable[str]) -> tuple[str, list[str]] | None:
+def graph_streams_at_once(
+    logset: Any, topics: Iterable[str], peek: Peek, tolerance: float
+) -> tuple[str, list[str]] | None:
     """The first scene-graph topic of ``topics`` (sorted) that recordings of ``logset``
     (:meth:`formats.logs.LogSet.recording_times`, by the logs' indexes) carry over times that
-    overlap, with those recordings' paths (each one's first file; the folder of a rosbag2
-    bag's storage files); None when no two recordings of any topic overlap."""
+    overlap, with graphs of other sessions (:func:`_one_session`), and those recordings'
+    paths (each one's first file; the folder of a rosbag2 bag's storage files); None when
+    there is no such topic."""
     for topic in sorted(topics):
         found = overlapping(logset.recording_times([topic]))
-        if found:
+        if found and not _one_session(logset, topic, found, peek, tolerance):
             return topic, [_recording_path(logset, key) for key in found]
+    return None
+
+
+def _one_session(
+    logset: Any, topic: str, recordings: list[int], peek: Peek, tolerance: float
+) -> bool:
+    """Whether the first graph with places of each of ``recordings`` on ``topic`` is of the
+    first one's scene-graph session (``tolerance``: the model's ``bind_radius``); False when
+    a recording has no such graph among its first :data:`FIRST_GRAPHS`."""
+    from aion_cli.engine.rebind import graph_agreement
+
+    graphs = [_first_graph(logset, topic, key, peek) for key in recordings]
+    first = graphs[0]
+    return first is not None and all(
+        g is not None and graph_agreement(first, g, tolerance).same for g in graphs[1:]
+    )
+
+
+def _first_graph(logset: Any, topic: str, key: int, peek: Peek) -> GraphSnapshot | None:
+    """The first of the first :data:`FIRST_GRAPHS` graphs on ``topic`` of recording ``key``
+    (its files in order) that decodes with places; None when none does."""
+    from aion_cli.formats.log_overlaps import file_messages
+
+    tried = 0
+    for index, (recording, file) in enumerate(zip(logset.recordings, logset.files, strict=True)):
+        if recording != key:
+            continue
+        span = (int(file.start_ns), int(file.end_ns) + 1)
+        for msg in islice(file_messages(logset, index, {topic}, span), FIRST_GRAPHS - tried):
+            tried += 1
+            graph = peek(logset, msg)
+            if graph is not None and len(graph.places):
+                return graph
+        if tried >= FIRST_GRAPHS:
+            break
     return None
 
 
@@ -57,16 +112,17 @@ def _recording_path(logset: Any, key: int) -> str:
 
 
 def graphs_at_once_error(topic: str, paths: list[str]) -> InputError:
-    """The refusal of logs of robots recording at once that carry scene graphs on ``topic``:
-    their graphs would take turns as the map's graph; the hint tells how to build their map
-    (each robot's map, then ``aion merge``) or give one graph for all (``--graph FILE``)."""
+    """The refusal of logs of robots recording at once that carry graphs of other scene-graph
+    sessions on ``topic``: their graphs would take turns as the map's graph; the hint tells
+    how to build their map (each robot's map, then ``aion merge``) or give one graph for all
+    (``--graph FILE``)."""
     words = [path_word(p) for p in paths]
     maps = [path_word(m) for m in _map_names(paths)]
     builds = "; ".join(f"aion build {w} -o {m}" for w, m in zip(words, maps, strict=True))
     return InputError(
         f"{len(paths)} logs carry scene graphs on {topic} at the same time "
-        f"({', '.join(paths)}): robots recording at once, whose graphs would take turns as "
-        "the map's graph; nothing was built",
+        f"({', '.join(paths)}), of other scene-graph sessions (robots recording at once): "
+        "their graphs would take turns as the map's graph; nothing was built",
         hint=(
             f"build each robot's map and merge them ({builds}; aion merge "
             f"{' '.join(maps)} -o fleet.aion), or build on one graph with --graph FILE"

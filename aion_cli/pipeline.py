@@ -439,7 +439,9 @@ class _Build(StreamStep):
             start=start,
             derive=lambda: self._derive(logset, plan, tf, config, start),
             graph_topics_at_once=lambda: topics_at_once(logset, plan.names("graph")),
-            graph_streams_at_once=lambda: graph_streams_at_once(logset, plan.names("graph")),
+            graph_streams_at_once=lambda: graph_streams_at_once(
+                logset, plan.names("graph"), self.graphs.peek, config.bind_radius
+            ),
         )
 
     def _span(self) -> int | None:

@@ -21,7 +21,7 @@ from aion_cli.errors import InputError
 from aion_cli.formats.writers import LogWriter
 from aion_cli.mapquery import load_map
 from aion_cli.pipeline import BuildOptions, build_map
-from tests.cli.logdata import EDGES, PLACES, ROOMS, T0, S, _stamp, graph_payload
+from tests.cli.logdata import EDGES, PLACES, ROOMS, T0, S, _stamp, graph_payload, sym
 from tests.graph_stream_logs import assert_same_map
 
 TOPIC = "/hydra/backend/dsg"
@@ -45,9 +45,10 @@ def write_robot(
     standing at ``person`` (map frame) every second; the robot at rest at p0 on ``/tf``
     every 5 s. ``moved``: from that second on the graphs hold p1 moved 1 m along y (a later
     graph of the same session)."""
+    first, second = sorted(places)[:2]  # p0, p1
     later = dict(places)
-    x, y, z = later[1]
-    later[1] = (x, y + 1.0, z)
+    x, y, z = later[second]
+    later[second] = (x, y + 1.0, z)
     payloads = [np.frombuffer(graph_payload(p), np.uint8) for p in (places, later)]
     with LogWriter(path, "mcap") as writer:
         for s in seconds:
@@ -65,7 +66,7 @@ def write_robot(
                     t,
                 )
             if s % 5 == 0:
-                x0, y0, z0 = places[0]
+                x0, y0, z0 = places[first]
                 writer.write(
                     "/tf",
                     "tf2_msgs/msg/TFMessage",
@@ -117,17 +118,42 @@ def test_two_robots_graphs_at_once_are_refused(tmp_path: Path) -> None:
         with pytest.raises(InputError) as exc:
             build_map(BuildOptions(logs=logs, output=out, workers=workers))
         assert f"2 logs carry scene graphs on {TOPIC} at the same time" in exc.value.message
-        assert str(one) in exc.value.message and str(two) in exc.value.message
+        assert str(one) in exc.value.message
+        assert str(two) in exc.value.message
         assert "aion merge" in (exc.value.hint or "")
         assert not out.exists()
+
+
+def test_a_session_without_a_shared_place_id_is_refused_too(tmp_path: Path) -> None:
+    """Robot 2's session numbering its places from p10: no place id in common, so nothing
+    says the graphs are one session (``aion merge`` calls such maps different too)."""
+    one = write_robot(tmp_path / "robot1.mcap", PLACES, PLACES[1][:2], track=1)
+    renumbered = {k + 10: xyz for k, xyz in PLACES.items()}
+    two = write_robot(tmp_path / "robot2.mcap", renumbered, PLACES[4][:2], track=2,
+                      offset_s=30)
+    with pytest.raises(InputError, match="at the same time"):
+        build_map(BuildOptions(logs=(one, two), output=tmp_path / "m.aion", workers=1))
+
+
+def test_robots_sharing_one_session_build_as_one_stream(tmp_path: Path) -> None:
+    """Robots whose graphs are one session's (a multi-robot graph both log, or one recording
+    twice): the graphs agree where they share place ids, so the logs build together as
+    before, one stream of that session's graphs (identical here: decoded once)."""
+    one = write_robot(tmp_path / "robot1.mcap", PLACES, PLACES[1][:2], track=1)
+    two = write_robot(tmp_path / "robot2.mcap", PLACES, PLACES[4][:2], track=2, offset_s=30)
+    report = build_map(BuildOptions(logs=(one, two), output=tmp_path / "m.aion", workers=1))
+    assert report.graph_source == "log"
+    assert report.graph_messages == 2 * DURATION_S // GRAPH_PERIOD_S
+    assert report.graph_decoded == 1
+    assert report.detections_used == 2 * DURATION_S
 
 
 def test_the_hints_builds_and_merge_give_the_fleet_map(tmp_path: Path) -> None:
     """The route the refusal's hint gives: each robot's map on its own graph, then ``aion
     merge``. The two sessions are told apart (another lineage: no node id of one graph lies
     near the same id of the other), so the merged map binds both robots' flows to the newer
-    map's graph: robot 2's person to its p4, robot 1's person (at robot 1's p1, 3 m from
-    every place of robot 2's graph but its p0, 2.3 m) stays a hash cell holding all its
+    map's graph: robot 2's person to its p4, robot 1's person (at robot 1's p1, more than 3 m
+    from every place of robot 2's graph) stays a hash cell; each holds its 1,200
     detections."""
     from aion_cli.merging import merge_map_files
 
@@ -142,20 +168,17 @@ def test_the_hints_builds_and_merge_give_the_fleet_map(tmp_path: Path) -> None:
     state = load_map(tmp_path / "fleet.aion").state
     entries = state.entries
     rows = entries.live_rows()
-    held = (entries.counts[rows].sum(axis=1) + entries.nodir[rows]) > 0
+    total = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
+    held = total > 0
+    assert total[held].tolist() == [DURATION_S, DURATION_S]
     nodes = entries.node_id[rows][held & (entries.node_id[rows] > 0)]
-    assert state.graph is not None
-    p4 = _node_at(state, PLACES2[4])
-    assert nodes.tolist() == [p4]
+    assert state.graph is not None  # robot 2's: its p4 where robot 2's graphs have it
+    (p4,) = np.flatnonzero(np.asarray(state.graph.places.ids) == sym("p", 4))
+    np.testing.assert_allclose(np.asarray(state.graph.places.xyz)[p4], PLACES2[4])
+    assert nodes.tolist() == [sym("p", 4)]
     cells = entries.xyz[rows][held & (entries.node_id[rows] == 0), :2]
-    assert len(cells) == 1 and np.linalg.norm(cells[0] - np.array(PLACES[1][:2])) < 0.5
-
-
-def _node_at(state: object, xyz: tuple[float, float, float]) -> int:
-    graph = state.graph  # type: ignore[attr-defined]
-    places = graph.places
-    k = int(np.argmin(np.linalg.norm(np.asarray(places.xyz)[:, :2] - np.array(xyz[:2]), axis=1)))
-    return int(places.ids[k])
+    assert len(cells) == 1
+    assert np.linalg.norm(cells[0] - np.array(PLACES[1][:2])) < 0.5
 
 
 def test_one_robots_log_split_in_time_is_one_stream(tmp_path: Path) -> None:
@@ -174,11 +197,9 @@ def test_one_robots_log_split_in_time_is_one_stream(tmp_path: Path) -> None:
     assert_same_map(tmp_path / "whole.aion", tmp_path / "split.aion")
     graph = load_map(tmp_path / "split.aion").state.graph
     assert graph is not None
-    p1 = int(np.flatnonzero(np.asarray(graph.places.ids) == _node_at(
-        load_map(tmp_path / "whole.aion").state, (PLACES[1][0], PLACES[1][1] + 1.0, 0.0)
-    ))[0])
+    (p1,) = np.flatnonzero(np.asarray(graph.places.ids) == sym("p", 1))
     np.testing.assert_allclose(np.asarray(graph.places.xyz)[p1, :2],
-                               (PLACES[1][0], PLACES[1][1] + 1.0))
+                               (PLACES[1][0], PLACES[1][1] + 1.0))  # the second file's
 
 
 def test_a_second_robot_without_graphs_builds_with_the_first_ones(tmp_path: Path) -> None:
@@ -227,7 +248,8 @@ def test_the_cli_refuses_in_one_line_with_the_hint(tmp_path: Path) -> None:
     done = run("build", one, two, "-o", tmp_path / "fleet.aion")
     assert done.exit_code == 2
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
-    assert len(errors) == 1 and "at the same time" in errors[0]
+    assert len(errors) == 1
+    assert "at the same time" in errors[0]
     assert "Traceback" not in done.stderr
     assert f"aion build {one} -o robot1.aion; aion build {two} -o robot2.aion" in done.stderr
     assert "aion merge robot1.aion robot2.aion -o fleet.aion" in done.stderr
