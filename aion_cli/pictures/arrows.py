@@ -53,6 +53,16 @@ ARROW_CELLS = 4.0
 """The arrow of the busiest flow is this many hash cells long (one arrow per entry)."""
 BLOCK_ARROW = 0.9
 """A merged arrow at full length spans this share of its block (when that is longer)."""
+REACH = 2.0
+"""An arrow of one entry at full flow is at most this many times the arrows' spacing long
+(:func:`arrow_spacing`; never under :data:`MIN_ARROW_CELLS` cells): at :data:`ARROW_CELLS`
+cells, 2 m, over cells and Hydra places 0.3-0.5 m apart (the Lincoln corridor, a Matterport
+house), the busiest arrows crossed three or four of their neighbours, a red tangle over the
+junction."""
+MIN_ARROW_CELLS = 2.0
+"""The shortest an arrow at full flow is drawn, in cells, however close the arrows: at one
+cell (0.5 m) over a house's places 0.3 m apart, the busiest arrows were heads without shafts
+and the rest dots."""
 
 NO_ARROWS = "no arrows: no place or cell has flow with a direction here"
 """The legend of a picture in which nothing flows (in any panel of a series)."""
@@ -109,12 +119,34 @@ class ArrowField:
     angle: F64
     entropy: F64
     block: float | None
+    spacing: float | None = None
+    """The arrows' typical spacing (m, :func:`arrow_spacing`), which caps their length;
+    None: not capped."""
 
     def full_length(self, cell_size: float) -> float:
-        """The length of an arrow at full flow (m)."""
+        """The length of an arrow at full flow (m): :data:`ARROW_CELLS` cells, at most
+        :data:`REACH` times the arrows' spacing (but :data:`MIN_ARROW_CELLS` cells); a merged
+        arrow's, as long as :data:`BLOCK_ARROW` of its block when that is longer."""
         if self.block is None:
-            return ARROW_CELLS * cell_size
+            return min(ARROW_CELLS * cell_size, _reach(self.spacing, cell_size))
         return max(ARROW_CELLS * cell_size, BLOCK_ARROW * self.block)
+
+    def length_note(self, cell_size: float) -> str:
+        """The legend's line on the arrows' length when their spacing shortened them ("" when
+        it did not): how long the longest is drawn, and why."""
+        full = self.full_length(cell_size)
+        if self.block is not None or self.spacing is None or full >= ARROW_CELLS * cell_size:
+            return ""
+        if REACH * self.spacing >= MIN_ARROW_CELLS * cell_size:
+            return (
+                f"the longest arrow drawn {full:.2g} m long, {REACH:g} times the arrows' "
+                f"typical spacing ({self.spacing:.2g} m), so that it does not run over its "
+                "neighbours"
+            )
+        return (
+            f"the longest arrow drawn {full:.2g} m long ({MIN_ARROW_CELLS:g} cells; the "
+            f"arrows are typically {self.spacing:.2g} m apart)"
+        )
 
     def legend(self) -> str:
         """How the arrows were merged, for the picture's legend ("" when they were not)."""
@@ -125,6 +157,40 @@ class ArrowField:
             f"one arrow per {self.block:.4g} m block (the flow of its places and cells summed, "
             "along the direction most of it takes)"
         )
+
+
+def _reach(spacing: float | None, cell_size: float) -> float:
+    """The longest an arrow may be at ``spacing`` (:data:`REACH` times it, at least
+    :data:`MIN_ARROW_CELLS` cells; unbounded without a spacing)."""
+    if spacing is None or not spacing > 0:
+        return float("inf")
+    return max(REACH * spacing, MIN_ARROW_CELLS * cell_size)
+
+
+def arrow_spacing(fields: Sequence[ArrowField]) -> float | None:
+    """The typical spacing of the arrows of ``fields`` (the panels of one picture, which
+    share it): the median distance from each distinct tail to its nearest neighbour; None
+    for fewer than two tails or merged arrows (their blocks space them)."""
+    from scipy.spatial import cKDTree
+
+    if any(f.block is not None for f in fields):
+        return None
+    xy = np.concatenate([f.xy for f in fields] + [np.zeros((0, 2))])
+    tails = np.unique(xy[:, 0] + 1j * xy[:, 1])
+    if tails.size < 2:
+        return None
+    points = np.column_stack([tails.real, tails.imag])
+    nearest, _ = cKDTree(points).query(points, k=2)
+    return float(np.median(nearest[:, 1]))
+
+
+def spaced(fields: Sequence[ArrowField]) -> list[ArrowField]:
+    """``fields`` carrying their shared :func:`arrow_spacing` (which caps the arrows'
+    length, :meth:`ArrowField.full_length`)."""
+    from dataclasses import replace
+
+    spacing = arrow_spacing(fields)
+    return [replace(f, spacing=spacing) for f in fields]
 
 
 def arrow_block(
@@ -193,4 +259,7 @@ def legend_lines(scale: str, fields: Sequence[ArrowField], scenes: Sequence[Scen
     )
     grey = any(has_no_flow(np.r_[s.node_flow, s.cells_flow]) for s in scenes)
     arrows = scale if any(len(f.flow) for f in fields) else NO_ARROWS
-    return [arrows, colour_key(teal, grey), fields[0].legend() if len(fields) else ""]
+    if not len(fields):
+        return [arrows, colour_key(teal, grey), ""]
+    length = fields[0].length_note(scenes[0].cell_size) if any(len(f.flow) for f in fields) else ""
+    return [arrows, length, colour_key(teal, grey), fields[0].legend()]

@@ -14,7 +14,9 @@ What is drawn, back to front:
   under its arrow (grey without flow, teal with flow but no heading: ``flow_colors``);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
-  ``ARROW_CELLS·δ·busy`` (busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
+  ``ARROW_CELLS·δ·busy`` (at most ``REACH`` times the arrows' typical spacing, so that
+  neighbours do not cross: :meth:`.arrows.ArrowField.full_length`;
+  busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
   ``busy_fraction``: proportional to flow up to ``flow_scale``, drawn ``ARROW_CELLS`` cells
   long; :func:`arrow_scale` chooses it, as the 3D scenes' sizes), coloured
   by entropy with ``formats.scene_colours.entropy_colors`` (``(H, 0, 1 − H)``: blue for one
@@ -64,6 +66,7 @@ from aion_cli.pictures.arrows import (
     arrow_field,
     arrow_scale,
     legend_lines,
+    spaced,
 )
 from aion_cli.pictures.backdrop import (
     LABEL_GREY,
@@ -163,7 +166,8 @@ def draw_topdown(
     ``label_size`` (points) for small panels;
     ``footprint`` / ``rooms``: the mesh already rendered (:func:`mesh_footprint`) and the
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
-    the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry); ``graph``: how
+    the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry, their length
+    capped by their spacing, :func:`.arrows.spaced`); ``graph``: how
     heavily the place edges and dots are drawn (:mod:`.graph_ink`; default: in full)."""
     from matplotlib.collections import LineCollection
 
@@ -186,7 +190,7 @@ def draw_topdown(
                 zorder=2,
             )
         )
-    field = arrows if arrows is not None else arrow_field(scene)
+    field = arrows if arrows is not None else spaced([arrow_field(scene)])[0]
     # the arrows stand on squares and dots of their own colours: under merged arrows the
     # cells' squares are faint and the nodes' dots left out (drawn solid, dots overlapping
     # where arrows merge, they are a carpet that hides the arrows); a cell with flow is pale
@@ -322,7 +326,7 @@ def topdown_figure(
     rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
     block = arrow_block(extent, width, min(s.cell_size for s in scenes), height)
     ink = graph_ink(scenes, extent, width, height, dpi)  # places a few pixels apart: lighter
-    fields = [arrow_field(s, block) for s in scenes]
+    fields = spaced([arrow_field(s, block) for s in scenes])  # one length cap for all
     if block is None:
         arrows = arrow_scale(scenes)
     else:  # merged arrows: the scale of the blocks' summed flows

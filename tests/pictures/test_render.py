@@ -157,13 +157,14 @@ def test_only_aion_s_own_software_text_marks_a_picture(tmp_path: Path) -> None:
 
 
 def _tall_map_with_a_long_caption() -> object:
-    """ETH's hotel in synthetic form: hash cells over 8 m x 15 m (a tall map), one cell 100
+    """ETH's hotel in synthetic form: hash cells 1 m apart over 8 m x 15 m (a tall map; so
+    far apart that the arrows keep their full length, without a line on it), one cell 100
     times as busy as the rest and five with flow but no heading: a three-line caption."""
     import numpy as np
 
     from tests.pictures.pixels import cells_only_scene
 
-    xs, ys = np.arange(-3.25, 4.3, 0.5), np.arange(-10.25, 4.3, 0.5)
+    xs, ys = np.arange(-3.25, 4.3, 1.0), np.arange(-10.25, 4.3, 1.0)
     xy = np.array([(x, y) for x in xs for y in ys])
     n = len(xy)
     flow, angle, entropy = np.ones(n), np.zeros(n), np.full(n, 0.5)
