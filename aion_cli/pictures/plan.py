@@ -43,9 +43,11 @@ def plan_figure(
     goal_label: str,
     title: str,
     dpi: float = DPI,
+    frame: str | None = None,
 ) -> Any:
     """The figure of a plan: ``scene`` at the departure with both paths, a start marker (a
-    circle at the first point) and a goal marker (a star at the last point)."""
+    circle at the first point) and a goal marker (a star at the last point); the axes in
+    ``frame`` (the map's, when known)."""
     lines = [
         PathLine(
             distance_only.xyz,
@@ -63,7 +65,9 @@ def plan_figure(
         ),
     ]
     markers = end_markers(temporal.xyz, start_label, goal_label)
-    return topdown_figure([scene], [title], paths=[lines], markers=markers, dpi=dpi)
+    return topdown_figure(
+        [scene], [title], paths=[lines], markers=markers, dpi=dpi, frame=frame
+    )
 
 
 def end_markers(xyz: npt.ArrayLike, start_label: str, goal_label: str) -> list[Marker]:

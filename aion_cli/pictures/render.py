@@ -27,6 +27,13 @@ if TYPE_CHECKING:
     from aion_cli.mapquery import LoadedMap
     from aion_cli.routes import Routes
 
+def map_frame(loaded: LoadedMap | None) -> str | None:
+    """The frame the map's positions are in, as its manifest records it (``aion build
+    --map-frame``; ``map`` by default); None for a map that does not record it (or none)."""
+    frame = (getattr(loaded, "manifest", None) or {}).get("map_frame")
+    return frame if isinstance(frame, str) and frame else None
+
+
 def check_png_target(out: Path, option: str = "-o") -> None:
     """Refuse, before anything is computed, a target that is not a new PNG file or one aion
     drew, in an existing folder (a folder, a device, another file, a PNG picture of someone
@@ -165,6 +172,7 @@ def render_map_png(
         suptitle=title,
         paths=[paths],
         dpi=dpi,
+        frame=map_frame(loaded),
     )
     return save_png(fig, out)
 
@@ -229,6 +237,7 @@ def export_png(
         paths=paths,
         markers=markers,
         dpi=dpi,
+        frame=map_frame(loaded),
     )
     return save_png(fig, out, option)
 
@@ -300,5 +309,6 @@ def plan_png(
         goal_label=goal,
         title=title,
         dpi=dpi,
+        frame=map_frame(loaded),
     )
     return save_png(fig, out, "--png")

@@ -142,6 +142,13 @@ def entropy_cmap() -> Any:
     return cmap.with_extremes(bad=NO_FLOW_GREY)
 
 
+def axis_label(axis: str, frame: str | None = None) -> str:
+    """A panel's axis label: ``"x (m)"``, with the frame the map's positions are in when
+    known (``"x (m), frame odom"``: a map built with ``--map-frame odom`` is drawn in it,
+    which the picture did not say)."""
+    return f"{axis} (m)" if not frame else f"{axis} (m), frame {plain_text(frame)}"
+
+
 def draw_topdown(
     ax: Any,
     scene: Scene,
@@ -158,6 +165,7 @@ def draw_topdown(
     rooms: RoomOutlines | None = None,
     arrows: ArrowField | None = None,
     graph: GraphInk = FULL,
+    frame: str | None = None,
 ) -> None:
     """Draw ``scene`` top-down into the matplotlib axes ``ax`` (see the module docstring).
     ``flow_scale``: the flow drawn at full arrow length (default: :func:`arrow_scale`'s);
@@ -168,7 +176,8 @@ def draw_topdown(
     room outlines already computed (:func:`room_outlines`); default: made here; ``arrows``:
     the arrows to draw (:func:`.arrows.arrow_field`; default: one per entry, their length
     capped by their spacing, :func:`.arrows.spaced`); ``graph``: how
-    heavily the place edges and dots are drawn (:mod:`.graph_ink`; default: in full)."""
+    heavily the place edges and dots are drawn (:mod:`.graph_ink`; default: in full);
+    ``frame``: the frame the axes are in (:func:`axis_label`; None: not named)."""
     from matplotlib.collections import LineCollection
 
     from aion_cli.pictures.ticks import FittingLocator
@@ -277,8 +286,8 @@ def draw_topdown(
     # the map's own coordinates on the ticks: matplotlib's offset notation drew a corridor at
     # x = 200 km as "0 ... 30" with "+2e5" in a corner, easily read as the map's x
     ax.ticklabel_format(axis="both", style="plain", useOffset=False)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    ax.set_xlabel(axis_label("x", frame))
+    ax.set_ylabel(axis_label("y", frame))
     if title is not None:
         ax.set_title(plain_text(title), fontsize=10)
 
@@ -292,10 +301,12 @@ def topdown_figure(
     markers: Sequence[Marker] = (),
     dpi: float = DPI,
     flow_scale: float | None = None,
+    frame: str | None = None,
 ) -> Any:
     """A matplotlib ``Figure`` (Agg canvas) with one panel per scene, titled by ``titles``:
     shared axes, flow scale (default: :func:`arrow_scale` of all scenes) and entropy colour bar;
-    ``paths[i]`` drawn on panel ``i``, ``markers`` on every panel. At most
+    ``paths[i]`` drawn on panel ``i``, ``markers`` on every panel; the axes labelled with
+    ``frame``, the map's frame, when given (:func:`axis_label`). At most
     :data:`MAX_PANELS` panels (an :class:`InputError` beyond)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.cm import ScalarMappable
@@ -373,6 +384,7 @@ def topdown_figure(
             label_size=7.0 if n == 1 else 5.5,
             arrows=fields[i],
             graph=ink,
+            frame=frame,
         )
         last_in_column = i + cols >= n
         ax.xaxis.set_tick_params(labelbottom=last_in_column)
@@ -438,6 +450,7 @@ __all__ = [
     "PathLine",
     "RoomOutlines",
     "arrow_scale",
+    "axis_label",
     "draw_topdown",
     "entropy_cmap",
     "mesh_footprint",

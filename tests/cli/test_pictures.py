@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -265,3 +266,49 @@ def test_the_missing_glyph_warning_of_every_supported_matplotlib_is_left_out(
         warnings.simplefilter("error")
         save_marked_png(Figure(), tmp_path / "x.png")
     assert (tmp_path / "x.png").read_bytes() == PNG_MAGIC
+
+
+def _axis_labels(loaded: Any, out: Path, monkeypatch: pytest.MonkeyPatch) -> set[tuple[str, str]]:
+    """The (x, y) labels of the panels of ``loaded``'s picture at ``AT`` (the figure kept as
+    :func:`~aion_cli.pictures.render.save_png` saves it)."""
+    from aion_cli.api_time import to_ns
+    from aion_cli.pictures import render
+
+    figures: list[Any] = []
+    save = render.save_png
+
+    def keep(fig: Any, path: Path, option: str = "-o") -> Path:
+        figures.append(fig)
+        return save(fig, path, option)
+
+    monkeypatch.setattr(render, "save_png", keep)
+    render.render_map_png(loaded, to_ns(AT), None, out)
+    (fig,) = figures
+    return {(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes if ax.get_title()}
+
+
+def test_the_axes_name_the_frame_the_map_is_in(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A map's positions are in the frame it was built in (``--map-frame``, ``map`` by
+    default, as ``aion info`` says): the picture's axes say which, and say nothing for a
+    map that does not record it."""
+    from dataclasses import replace
+
+    from aion_cli.mapquery import load_map
+
+    loaded = load_map(office.map)
+    info = run_json("info", office.map, "--format", "json")
+    frame = info["map_frame"]
+    assert frame == "map"  # the build's default
+    assert _axis_labels(loaded, tmp_path / "a.png", monkeypatch) == {
+        ("x (m), frame map", "y (m), frame map")
+    }
+    odom = replace(loaded, manifest={**loaded.manifest, "map_frame": "odom"})
+    assert _axis_labels(odom, tmp_path / "b.png", monkeypatch) == {
+        ("x (m), frame odom", "y (m), frame odom")
+    }
+    unknown = {k: v for k, v in loaded.manifest.items() if k != "map_frame"}
+    assert _axis_labels(replace(loaded, manifest=unknown), tmp_path / "c.png", monkeypatch) == {
+        ("x (m)", "y (m)")
+    }
