@@ -98,7 +98,9 @@ def flow_maps_side_by_side(
     axes[0].set_ylabel("y (m)")
     if arrows is not None:
         bar = fig.colorbar(arrows, ax=list(axes), shrink=0.8)
-        bar.set_label("flow / the map's largest (colour and arrow length, m)")
+        # a share, no unit: the arrow of the map's busiest entry is 1 m long, the rest as
+        # their share ("(colour and arrow length, m)" read as a flow in metres)
+        bar.set_label("flow as a share of the map's busiest (colour; arrow length: 1 m = 1)")
     fig.suptitle(title)
     save_marked_png(fig, path, dpi=110)
     plt.close(fig)

@@ -125,3 +125,9 @@ def test_the_direction_maps_name_their_axes_and_colours(
     bars = [ax for ax in fig.axes if ax not in maps]
     assert len(bars) == 1
     assert "flow" in bars[0].get_ylabel()
+    # the arrows are shares of the busiest flow (4), 1 m long at it, as the bar says: its
+    # label read "(colour and arrow length, m)", a flow in metres
+    assert "arrow length: 1 m = 1" in bars[0].get_ylabel()
+    for ax in maps:
+        (quiver,) = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+        assert np.hypot(quiver.U, quiver.V).tolist() == pytest.approx([0.25, 0.5, 1.0])
