@@ -14,8 +14,8 @@ What is drawn, back to front:
   under its arrow (grey without flow, teal with flow but no heading: ``flow_colors``);
 - **arrows**: one per node or unbound cell with flow, from its centre along its dominant
   direction, length
-  ``ARROW_CELLS·δ·busy`` (at most ``REACH`` times the arrows' typical spacing, so that
-  neighbours do not cross: :meth:`.arrows.ArrowField.full_length`;
+  ``ARROW_CELLS·δ·busy`` (at most ``REACH`` times the arrows' typical spacing, so that the
+  busiest do not run across their neighbours: :meth:`.arrows.ArrowField.full_length`;
   busy = ``min(flow / flow_scale, 1)``, ``formats.scene_colours``'
   ``busy_fraction``: proportional to flow up to ``flow_scale``, drawn ``ARROW_CELLS`` cells
   long; :func:`arrow_scale` chooses it, as the 3D scenes' sizes), coloured
