@@ -330,7 +330,7 @@ def place_scores(m: Any, scenario: Scenario, drawn: Drawn, split: int) -> list[d
     """Per place: the deviance and MAE of its hourly counts in the test days for aion's
     forecast (the entries within 2 m of it, summed, at every window's centre), its static
     rate and its own training mean per hour of the day and per hour of the week (weekday and
-    hour), beside the true rates."""
+    hour; a slot never watched takes the hour of the day's), beside the true rates."""
     hours = drawn.hours
     window_s = 600
     first, last = int(hours.start_s[split]), int(hours.start_s[-1]) + HOUR_S
@@ -360,7 +360,11 @@ def place_scores(m: Any, scenario: Scenario, drawn: Drawn, split: int) -> list[d
         slot = hours.weekday * 24 + hours.hour
         by_slot = np.bincount(slot[train][watched], drawn.counts[train][watched, p], 168)
         slots_seen = np.maximum(np.bincount(slot[train][watched], minlength=168), 1)
-        week_h = (by_slot / slots_seen)[slot[split:]]
+        slot_mean = np.where(  # a slot never watched takes the hour-of-day mean
+            np.bincount(slot[train][watched], minlength=168) > 0,
+            by_slot / slots_seen, np.tile(by_hour / seen, 7),
+        )
+        week_h = slot_mean[slot[split:]]
         truth = drawn.counts[split:, p].astype(np.float64)
         out.append({
             "place": p,
