@@ -140,8 +140,9 @@ class ModelConfig:
     pseudo-detections (``"auto"``: estimated from the map, ``temporal.direction_prior``)
     toward the parent's histogram (room, else the ``pool_size``-metre
     neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
-    one with ``direction_time_prior``. Log-likelihoods floor rates at ``rate_floor``
-    detections per window.
+    one with ``direction_time_prior`` pseudo-detections (``"auto"``: estimated from the
+    map's profile bins, ``temporal.direction_prior.time_prior``). Log-likelihoods floor
+    rates at ``rate_floor`` detections per window.
     Planning: edge cost ``d * (1 + (w_entropy*H + w_flow)*F + w_direction*c_d)`` (see
     ``engine.planning``: entropy counts as busy as the place is), flow normalised by
     ``plan_flow_scale`` detections per window, or, with
@@ -171,7 +172,7 @@ class ModelConfig:
     max_order: int = 4
     fremen_clock: str = "standard"
     direction_prior: float | str = "auto"
-    direction_time_prior: float = 50.0
+    direction_time_prior: float | str = "auto"
     pool_size: float = 4.0
     rate_floor: float = 1e-3
     plan_speed: float = 1.0
@@ -206,7 +207,6 @@ class ModelConfig:
             "plan_flow_scale",
             "plan_connect_radius",
             "derive_spacing",
-            "direction_time_prior",
         )
         for name in positive:
             value = getattr(self, name)
@@ -236,6 +236,14 @@ class ModelConfig:
                 )
         elif not (_is_number(prior) and math.isfinite(prior) and prior >= 0):
             raise ConfigError(f'direction_prior must be a number >= 0 or "auto", got {prior!r}')
+        time_prior = self.direction_time_prior
+        if time_prior != "auto" and not (
+            _is_number(time_prior) and math.isfinite(time_prior) and time_prior > 0
+        ):
+            raise ConfigError(
+                f'direction_time_prior must be a positive number or "auto", got {time_prior!r}',
+                hint='"auto" estimates it from the map (the default)',
+            )
         for name, (lo, hi) in BOUNDED.items():
             value = getattr(self, name)
             if not lo <= value <= hi:

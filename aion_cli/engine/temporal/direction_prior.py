@@ -38,6 +38,9 @@ AUTO = "auto"
 """``direction_prior = "auto"``: κ estimated from the map (the default)."""
 FALLBACK = 10.0
 """κ when too few entries tell (and the fixed default before the estimate existed)."""
+TIME_FALLBACK = 50.0
+"""κ_t (``direction_time_prior = "auto"``) when too few (entry, profile bin) pairs tell: the
+fixed default before the estimate existed (stop 67)."""
 GROUP_PRIOR = 10.0
 """With ``"auto"``, the groups' own pull toward the map's histogram (pseudo-detections)."""
 KAPPA_RANGE = (0.5, 100.0)
@@ -45,7 +48,7 @@ KAPPA_RANGE = (0.5, 100.0)
 entries all agree with their parents (where the likelihood grows without end)."""
 MIN_ENTRIES = 10
 """Entries with at least two directed detections needed for an estimate."""
-_MAX_ENTRIES = 2048
+MAX_ENTRIES = 2048
 """About this many entries enter the estimate, chosen by a hash of their counts, so that a
 day's scoring or a query on a big map costs a bounded few milliseconds (on the 20-day
 benchmark log, 3,684 entries: 17-20 ms a day close under load, 4 % of the build; the estimate
@@ -68,18 +71,34 @@ def entry_prior(config: ModelConfig, directed: Callable[[], tuple[F64, F64]]) ->
     return float(value)
 
 
-def fitted_kappa(counts: F64, parent: F64) -> float:
+def time_prior(config: ModelConfig, per_bin: Callable[[], tuple[F64, F64]]) -> float:
+    """κ_t of an entry's time-varying direction histograms toward its static one: the
+    configured ``direction_time_prior``, or with ``"auto"`` the estimate from ``per_bin()``:
+    N[(e, h), b] (an entry's directed detections in one profile bin) and p[(e, h), b] (the
+    entry's static histogram). The same marginal likelihood as κ's, each (entry, profile
+    bin) a draw around its entry's histogram: where walking directions keep to the hour (a
+    corridor walked east in the morning, west in the evening) κ_t is small and an hour's few
+    detections say much; where they do not, κ_t is large and the hour's histogram stays the
+    static one. :data:`TIME_FALLBACK` with fewer than :data:`MIN_ENTRIES` pairs that tell."""
+    value = config.direction_time_prior
+    if isinstance(value, str):
+        return fitted_kappa(*per_bin(), fallback=TIME_FALLBACK)
+    return float(value)
+
+
+def fitted_kappa(counts: F64, parent: F64, fallback: float = FALLBACK) -> float:
     """The maximum marginal likelihood κ (module docstring), found by golden-section search
-    on ln κ (numpy only: no ``scipy`` import on a query's path)."""
+    on ln κ (numpy only: no ``scipy`` import on a query's path); ``fallback`` with fewer
+    than :data:`MIN_ENTRIES` rows of two detections or more."""
     n = row_sums(counts)
     tell = n >= 2
     if int(tell.sum()) < MIN_ENTRIES:
-        return FALLBACK
+        return fallback
     c = np.asarray(counts, np.float64)[tell]
     p = np.clip(np.asarray(parent, np.float64)[tell], 1e-12, None)
     n = n[tell]
-    if c.shape[0] > _MAX_ENTRIES:
-        keep = _sample(c, _MAX_ENTRIES)
+    if c.shape[0] > MAX_ENTRIES:
+        keep = sample_rows(c, MAX_ENTRIES)
         c, p, n = c[keep], p[keep], n[keep]
     row, col = np.nonzero(c)
     # the likelihood depends only on how often each (count, parent share) pair and each
@@ -187,7 +206,7 @@ def log_gamma(x: F64) -> F64:
     return out
 
 
-def _sample(counts: F64, about: int) -> npt.NDArray[np.bool_]:
+def sample_rows(counts: F64, about: int) -> npt.NDArray[np.bool_]:
     """About ``about`` of the rows, chosen by their counts alone (a hash of the whole
     numbers), so the same rows are chosen whatever order they come in."""
     whole = np.minimum(counts, 2.0**31).astype(np.uint64)

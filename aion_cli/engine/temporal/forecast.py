@@ -50,7 +50,9 @@ Directions: p_map,b = (N_map,b + 1) / (N_map + B) (Laplace), p_g,b = (N_g,b + κ
 :mod:`.direction_prior`; κ = 0:
 the raw proportions, the parent's only where an entry has no directed detection); the
 time-varying families use pseudo-counts c_b(t) (profile: the entry's directed counts in the
-profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t h_e,b) / (Σ c + κ_t), so no
+profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t h_e,b) / (Σ c + κ_t), κ_t =
+``direction_time_prior`` (with ``"auto"``, the default: estimated from the entries' profile
+bins, :meth:`Forecaster.kappa_t`), so no
 probability falls below κ·κ_t·min_b p_map,b / ((N_e + κ)(Σ c + κ_t)) — a floor set by the
 counts, never zero.
 """
@@ -321,12 +323,19 @@ class Forecaster(FremenParts):
         out: F64 = self.rate_total[e] - 2.0 * np.abs(self._coef_total[e, :m]).sum(axis=1)
         return out
 
+    @property
+    def kappa_t(self) -> float:
+        """κ_t, the static histogram's pseudo-detections in a time-varying one
+        (``direction_time_prior``; ``"auto"``: estimated from every pooled entry,
+        ``PoolStats.kappa_t``, whichever block of them this forecaster serves)."""
+        return self.pool.kappa_t
+
     def direction(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
         """Direction probabilities float64[P, B] of family ``family`` at pairs."""
         hist: F64 = self.histogram[e]  # a gathered copy, the caller's to keep
         if family == "static":
             return hist
-        kappa_t = self.params.config.direction_time_prior
+        kappa_t = self.kappa_t
         pseudo = self._pseudo_counts(family, e, h, t_s)
         denominator = row_sums(pseudo, keepdims=True) + kappa_t
         hist *= kappa_t
@@ -344,7 +353,7 @@ class Forecaster(FremenParts):
         hist: F64 = self.histogram[e[pair], b]
         if family == "static":
             return hist
-        kappa_t = self.params.config.direction_time_prior
+        kappa_t = self.kappa_t
         pseudo = self._pseudo_counts(family, e, h, t_s)
         denominator = row_sums(pseudo) + kappa_t
         hist *= kappa_t

@@ -16,7 +16,15 @@ import numpy.typing as npt
 
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
-from aion_cli.engine.temporal.direction_prior import FALLBACK, entry_prior, group_prior
+from aion_cli.engine.temporal.direction_prior import (
+    FALLBACK,
+    MAX_ENTRIES,
+    TIME_FALLBACK,
+    entry_prior,
+    group_prior,
+    sample_rows,
+    time_prior,
+)
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, unseen_bins
 from aion_cli.engine.types import F64, I64
@@ -41,6 +49,10 @@ class PoolStats:
     kappa: float = FALLBACK
     """κ of the entries' direction histograms toward their group's (``direction_prior``: the
     configured number, or estimated from the pooled entries, :mod:`.direction_prior`)."""
+    kappa_t: float = TIME_FALLBACK
+    """κ_t of an hour's direction histogram toward the entry's static one
+    (``direction_time_prior``: the configured number, or estimated from the pooled entries'
+    profile bins, :func:`.direction_prior.time_prior`)."""
     unseen: npt.NDArray[np.bool_] | None = None
     """The profile bins of a kind of day the map never observed (no pooled entry had a window
     in them: a Saturday of a map of weekdays), bool[H], or None: an entry's ``profile`` takes
@@ -95,8 +107,13 @@ class PoolStats:
             return held, histograms[groups]
 
         kappa = entry_prior(params.config, directed_counts)
+
+        def per_bin() -> tuple[F64, F64]:
+            return per_bin_directed(state, rows, *directed_counts(), kappa)
+
+        kappa_t = time_prior(params.config, per_bin)
         unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
-        return cls(shapes, histograms, map_shape, kept, kappa, unseen)
+        return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen)
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
@@ -185,6 +202,23 @@ def normalised(counts: F64) -> F64:
     total = row_sums(counts, keepdims=True)
     out: F64 = np.divide(counts, total, out=np.zeros_like(counts), where=total > 0)
     return out
+
+
+def per_bin_directed(
+    state: TemporalState, rows: I64, directed: F64, parent: F64, kappa: float
+) -> tuple[F64, F64]:
+    """The input of κ_t's estimate: N[(e, h), b], the directed detections of entry ``e``
+    (of ``rows``) in profile bin ``h``, and the entry's static histogram (``directed`` under
+    ``kappa`` pseudo-detections of ``parent``, as ``Forecaster.histogram``) on each of its
+    rows, for about ``MAX_ENTRIES`` of the entries with two directed detections or more,
+    chosen by their counts (any order of the entries gives the same rows)."""
+    b = directed.shape[1]
+    tell = np.flatnonzero(directed.sum(axis=1) >= 2)
+    if tell.size > MAX_ENTRIES:
+        tell = tell[sample_rows(directed[tell], MAX_ENTRIES)]
+    per_bin = np.asarray(rows_of(state.cnt_profile, rows[tell]), np.float64)[:, :b]
+    static = posterior(directed[tell], parent[tell], kappa)
+    return per_bin.transpose(0, 2, 1).reshape(-1, b), np.repeat(static, per_bin.shape[2], 0)
 
 
 def posterior(counts: F64, prior: F64, kappa: float) -> F64:

@@ -19,7 +19,8 @@ over-dispersion (|r| up to 10) pass unchanged. Empty windows are not capped (the
 summed in closed form). (The sum of λ over the many empty windows is taken in closed form per
 profile bin, and for FreMEn from the day's Fourier sums wherever its lower
 bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
-fewer directed detections before the day than ``direction_time_prior`` scores its time-varying
+fewer directed detections before the day than κ_t (``direction_time_prior``, or its estimate from
+the state before the day: ``Forecaster.kappa_t``) scores its time-varying
 direction families as its static one (their histograms cannot differ much from it). The
 accumulators then absorb the day (:mod:`~aion_cli.engine.temporal.absorption`). Candidates
 are scored in blocks of ``_ENTRIES``, each entry's pairs in their order, so the scores do not
@@ -381,7 +382,7 @@ def _score_directions(
     day_score = np.zeros((candidates.size, len(params.direction)))
     # an entry with fewer directed detections than the time prior's weight cannot have a
     # time-varying histogram far from its static one: its other families score as static
-    evidence = fc.counts[:, :b].sum(axis=1) >= params.config.direction_time_prior
+    evidence = fc.counts[:, :b].sum(axis=1) >= fc.kappa_t
     rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     rich_e, rich_h, rich_t = ce[rich], pair_h[rich], pair_t[rich]
