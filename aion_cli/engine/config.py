@@ -237,8 +237,12 @@ class ModelConfig:
         elif not (_is_number(prior) and math.isfinite(prior) and prior >= 0):
             raise ConfigError(f'direction_prior must be a number >= 0 or "auto", got {prior!r}')
         time_prior = self.direction_time_prior
-        if time_prior != "auto" and not (
-            _is_number(time_prior) and math.isfinite(time_prior) and time_prior > 0
+        auto = isinstance(time_prior, str) and time_prior == "auto"
+        if not auto and not (
+            not isinstance(time_prior, str)
+            and _is_number(time_prior)
+            and math.isfinite(time_prior)
+            and time_prior > 0
         ):
             raise ConfigError(
                 f'direction_time_prior must be a positive number or "auto", got {time_prior!r}',
