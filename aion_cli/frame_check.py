@@ -1,6 +1,7 @@
 """Which detection frames a log's TF cannot bring into the map frame, found before a build.
 
-``aion info`` reads the first messages of every detection topic (their frames) and the first
+``aion info`` reads the first messages of every detection topic (their frames; of several
+logs, each log's first messages too: one log's tracker may write in another frame) and the first
 messages of every TF topic (the static transforms all come early; the dynamic ones name their
 frames from the start), joins the frames the transforms connect, and names the detection
 frames left apart from ``map``. A build would stop on them with "no TF to 'map'"; info says
@@ -114,12 +115,35 @@ def detection_frames(
         except AionError:
             continue
         out[info.topic] = set(decoded.frame_names())
+        out[info.topic] |= _other_logs_frames(logset, info.topic, sample, adapter)
         if report is not None:
             counts = DetectionCounts()
             counts.count_empty(decoded)
             report.empty_messages += counts.empty_messages
             kept_none = _kept_none(info.topic, len(sample), decoded, counts)
             report.warnings += [kept_none] if kept_none is not None else []
+    return out
+
+
+def _other_logs_frames(logset: Any, topic: str, sample: list[Any], adapter: Any) -> set[str]:
+    """The frames of the first :data:`DETECTION_SAMPLE` messages of ``topic`` in each log
+    given (recording) that holds it but has none in ``sample`` (the set's first messages):
+    a log whose tracker wrote in another frame (leg_tracker's 'rear_laser' beside
+    'right_laser') is named before the build meets it. Nothing for a set of one log."""
+    from aion_cli.errors import AionError
+    from aion_cli.formats.raw import recordings_of
+
+    holding = logset.recording_times([topic])
+    if len(holding) < 2:
+        return set()
+    sampled = set(recordings_of(sample).tolist())
+    out: set[str] = set()
+    for recording in sorted(set(holding) - sampled):
+        first = list(islice(logset.recording_messages(recording, [topic]), DETECTION_SAMPLE))
+        try:
+            out.update(adapter.decode(first).frame_names() if first else ())
+        except AionError:
+            continue
     return out
 
 

@@ -200,6 +200,19 @@ class LogSet:
             return self._sources[0].messages(selected, between, unread)
         return merge_by_start(self._sources, selected, between, unread, self._recordings)
 
+    def recording_messages(
+        self, recording: int, topics: Iterable[str] | None = None
+    ) -> Iterator[RawMessage]:
+        """:meth:`messages` of one recording only (:attr:`recordings`: a path given; the
+        storage files of one bag together), marked with it; the other files are not opened."""
+        if self._closed:
+            raise ValueError("recording_messages() on a closed LogSet")
+        chosen = [k for k, r in enumerate(self._recordings) if r == recording]
+        selected = None if topics is None else set(topics)
+        return merge_by_start(
+            [self._sources[k] for k in chosen], selected, None, None, [recording] * len(chosen)
+        )
+
     def recorded_windows(self, window_ns: int) -> Windows:
         """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
         (any topic, any file of the set, log time).

@@ -49,10 +49,10 @@ each a log starts or ends inside counted for the part recorded, as build counts 
 recorded_s (the same in seconds), window_s, hours_with_messages, empty_in_first_messages (of
 the first 20 per detection topic)} (only when the logs have no TF, and no scene graph or a
 first one without robot poses in its agent layer: build observes the windows with messages),
-frames_without_tf{topic: [frames of its first messages that the log's TF does not connect
-to 'map']} (aion_cli.frame_check: a build would need --map-frame), tf_roots{frame: the frame
-at the top of its TF tree, for those frames that TF knows (the --map-frame to build in when
-map->odom is missing)},
+frames_without_tf{topic: [frames of its first messages, in each log, that the log's TF does
+not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame),
+tf_roots{frame: the frame at the top of its TF tree, for those frames that TF knows (the
+--map-frame to build in when map->odom is missing)},
 observed_spans{log: [{start_ns, end_ns, start, end}]} (the spans aion convert --observed
 recorded in a log, which aion build takes as --observed spans), declared_zones{log: zone} (the
 time zone aion simulate or convert --tz wrote into a log, which aion build follows without

@@ -29,15 +29,20 @@ def print_frame_notes(report: dict[str, Any]) -> None:
             if has_tf
             else "and the log has no TF to 'map'"
         )
-        top = roots.get(frames[0], frames[0])
-        advice = (
-            f"build with --map-frame {safe(top)} (the top of the TF tree {safe(frames[0])!r} is "
-            f"in) or give the TF map->{safe(top)}"
-            if top != frames[0]
-            else f"build with --map-frame {safe(top)} (if it is a fixed frame) or give the TF"
-        )
+        tops = list(dict.fromkeys(roots.get(f, f) for f in frames))
+        top = tops[0]
+        if len(tops) > 1:  # no TF joins them: the build stops on the second it meets
+            each = ", ".join(f"--map-frame {safe(t)}" for t in tops)
+            advice = f"build the logs of each frame into a map of its own ({each}) or give the TF"
+        elif top != frames[0]:
+            advice = (
+                f"build with --map-frame {safe(top)} (the top of the TF tree {safe(frames[0])!r} "
+                f"is in) or give the TF map->{safe(top)}"
+            )
+        else:
+            advice = f"build with --map-frame {safe(top)} (if it is a fixed frame) or give the TF"
         console().print(
-            f"[yellow]note:[/yellow] {safe(topic)} holds detections in frame {safe(named)}, "
-            f"{apart}: {advice}",
+            f"[yellow]note:[/yellow] {safe(topic)} holds detections in "
+            f"{'frames' if len(frames) > 1 else 'frame'} {safe(named)}, {apart}: {advice}",
             soft_wrap=True,
         )
