@@ -96,6 +96,7 @@ class _Reading(_Build):
     state: _RecordingState
     watch: F64 | None = None
     unusable_outcome = "the test logs hold nothing to score the map on"
+    sim_clock_subject = ("the test logs' data", False)
 
     def _mapper(self, config: ModelConfig) -> Mapper:
         from aion_cli.engine.mapper import ACCEPTED, Mapper

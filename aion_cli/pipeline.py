@@ -114,6 +114,10 @@ class _Build(StreamStep):
     pass's stream the shard starts (:class:`~aion_cli.build_options.ShardStart`): a time shard
     learns only its part of log time, with the whole logs' time rules, TF and graph schedule."""
 
+    #: what a start on a simulation's clock is said of, and whether to say at which times to
+    #: query the map (a held-out reading: the test logs, judged at them)
+    sim_clock_subject: tuple[str, bool] = ("the map's data", True)
+
     def __init__(
         self,
         opts: BuildOptions,
@@ -460,7 +464,7 @@ class _Build(StreamStep):
         if self.previous_manifest is not None:
             start, end = self.previous_manifest.joined_span(start, end)
         self.report.start_ns, self.report.end_ns = start, end
-        sim = sim_time_warning(start)
+        sim = sim_time_warning(start, *self.sim_clock_subject)
         if sim is not None and not self.shard:  # a parallel build's parent says it once
             self.report.warnings.append(sim)
 

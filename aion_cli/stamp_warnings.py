@@ -88,9 +88,13 @@ clock from 0 (Gazebo with use_sim_time), not the world's (no ROS log is older)."
 SIM_TIME = "a simulation's clock from 0 (use_sim_time)?"
 
 
-def sim_time_warning(start_ns: int | None, what: str = "the map's data") -> str | None:
+def sim_time_warning(
+    start_ns: int | None, what: str = "the map's data", query: bool = True
+) -> str | None:
     """The warning for a map whose data (``what``: a log's messages) starts at ``start_ns``
-    before :data:`SIM_TIME_BEFORE_NS`; None for a later (or no) start."""
+    before :data:`SIM_TIME_BEFORE_NS`; None for a later (or no) start. ``query``: it says at
+    which times to query the map; False for logs a map is judged on (``aion evaluate
+    holdout``'s test logs), which it says are judged at that clock's hours."""
     if start_ns is None or start_ns >= SIM_TIME_BEFORE_NS:
         return None
     from datetime import UTC, datetime, timedelta
@@ -98,9 +102,17 @@ def sim_time_warning(start_ns: int | None, what: str = "the map's data") -> str 
     from aion_cli.engine.time_text import utc_text
 
     when = datetime(1970, 1, 1, tzinfo=UTC) + timedelta(microseconds=start_ns // 1000)
-    return (
+    head = (
         f"{what} starts at {utc_text(start_ns)} (a {when:%A}), {SIM_TIME} Its hours of "
-        "the day and weekdays are that clock's, not the world's, and a forecast for now lies "
-        f"decades after its data: query it at times of its own (aion predict MAP --time "
-        f'"{when:%Y-%m-%d} 08:00"), or record the logs with the wall clock'
+        "the day and weekdays are that clock's, not the world's"
+    )
+    if not query:
+        return (
+            f"{head}, and the map's forecast is judged at them: record the logs with the wall "
+            "clock"
+        )
+    return (
+        f"{head}, and a forecast for now lies decades after its data: query it at times of its "
+        f'own (aion predict MAP --time "{when:%Y-%m-%d} 08:00"), or record the logs with the '
+        "wall clock"
     )
