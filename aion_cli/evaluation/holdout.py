@@ -190,8 +190,9 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
 
 
 def _time_warnings(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
-    """Test detections inside the map's own time span (the map has seen them: the scores are
-    in-sample) or before it (the map is judged on the past): a warning each, as the scores
+    """Test detections inside the map's own time span (the map learnt from that time, from
+    them too if its logs hold them, or from other people then, a dataset's split: the scores
+    are in-sample) or before it (the map is judged on the past): a warning each, as the scores
     are then not those of a forecast."""
     warnings: list[str] = []
     span = manifest.get("time_span") or {}
@@ -202,7 +203,9 @@ def _time_warnings(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
         if inside:
             warnings.append(
                 f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
-                "the map has seen them (build the map from logs before the test logs only)"
+                "the map learnt from that time (from these detections too, if its logs hold "
+                "them), so the scores are not a forecast's (build the map from logs before the "
+                "test logs only)"
             )
         before = int(np.count_nonzero(t < start))
         if before:
