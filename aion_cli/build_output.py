@@ -136,6 +136,7 @@ def write_build(
     write_map(out, arrays, manifest.to_dict(), lock=False)
     report.map_bytes = out.stat().st_size
     report.hours_observed = observed_hours(manifest.families, manifest.config, config.timezone)
+    report.timezone = config.timezone
 
 
 def _recording_windows(report: BuildReport) -> int | None:

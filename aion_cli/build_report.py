@@ -88,6 +88,7 @@ class BuildReport:
     bound_cells: int = 0
     windows: int = 0
     hours_observed: str | None = None  # per kind of day, as aion info MAP shows them
+    timezone: str = "UTC"  # the map's zone, whose clock the CLI shows the messages' times on
     start_ns: int | None = None
     end_ns: int | None = None
     map_bytes: int = 0

@@ -51,6 +51,7 @@ class MergeReport:
     bound_cells: int = 0
     windows: int = 0
     hours_observed: str | None = None  # per kind of day, as aion info MAP shows them
+    timezone: str = "UTC"  # the merged map's zone, whose clock the CLI shows times on
     start_ns: int | None = None
     end_ns: int | None = None
     notes: list[str] = field(default_factory=list)

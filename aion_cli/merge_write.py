@@ -101,6 +101,7 @@ def write_merged(
     report.hours_observed = observed_hours(
         manifest.families, manifest.config, merged.config.timezone
     )
+    report.timezone = merged.config.timezone
 
 
 def _recording_first(counts: dict[str, Any]) -> float:

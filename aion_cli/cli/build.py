@@ -359,9 +359,9 @@ def command(
 
     if fmt == "json":
         click.echo(to_json(summary))
-        print_warnings(summary)  # on stderr: stdout stays one JSON document
+        print_warnings(summary, report.timezone)  # on stderr: stdout stays one JSON document
     else:  # with -q (quiet_option) only its warnings show
-        print_summary(summary)
+        print_summary(summary, report.timezone)
 
 
 def observed_spans(

@@ -8,14 +8,15 @@ from aion_cli.cli.console import console, print_table, warn_each
 from aion_cli.cli.output import human_size, markup_safe
 from aion_cli.number_text import WINDOWS_OBSERVED, counted, span_text
 
-__all__ = ["print_summary", "print_warnings", "span_text"]
+__all__ = ["clock_of", "print_summary", "print_warnings", "span_text"]
 
 
-def print_summary(summary: dict[str, Any]) -> None:
+def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
     """Render the build report dict (``BuildReport.to_dict``) as a two-column table, then its
-    warnings and notes. Every string that can come from a log or a path (map name, layer,
-    observation, notes naming topics and frames) is shown as plain text: control characters
-    made visible, rich markup not applied (:func:`aion_cli.cli.output.markup_safe`)."""
+    warnings and notes, their times on ``zone``'s clock (the map's: they are written in UTC).
+    Every string that can come from a log or a path (map name, layer, observation, notes
+    naming topics and frames) is shown as plain text: control characters made visible, rich
+    markup not applied (:func:`aion_cli.cli.output.markup_safe`)."""
     from rich.table import Table
 
     det = summary["detections"]
@@ -63,15 +64,34 @@ def print_summary(summary: dict[str, Any]) -> None:
             f"[dim]({markup_safe(name)})[/dim]",
         )
     print_table(table, err=True)
-    print_warnings(summary)
+    print_warnings(summary, zone)
+    shown = clock_of(zone)
     for message in summary.get("notes", []):
-        console().print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)
+        console().print(
+            f"[yellow]note:[/yellow] {markup_safe(shown(message))}", soft_wrap=True
+        )
 
 
-def print_warnings(summary: dict[str, Any]) -> None:
+def print_warnings(summary: dict[str, Any], zone: str = "UTC") -> None:
     """The report's warnings on stderr, one line each (also with ``-q`` and ``--format
-    json``: a build that lost data must say so however it is run)."""
-    warn_each(list(summary.get("warnings", [])))
+    json``: a build that lost data must say so however it is run), their times on ``zone``'s
+    clock, as ``aion info`` shows a log's (the JSON keeps them in UTC)."""
+    shown = clock_of(zone)
+    warn_each([shown(str(w)) for w in summary.get("warnings", [])])
+
+
+def clock_of(zone: str) -> Any:
+    """A message's UTC times on ``zone``'s clock (:func:`aion_cli.engine.time_text.on_clock`);
+    unchanged in a zone that cannot be read (a damaged manifest's)."""
+    from aion_cli.engine.time_text import on_clock
+    from aion_cli.errors import AionError
+    from aion_cli.timeparse import resolve_zone
+
+    try:
+        resolved = resolve_zone(zone)
+    except AionError:
+        return str
+    return lambda text: on_clock(text, resolved)
 
 
 def heading_text(headings: dict[str, int]) -> str:

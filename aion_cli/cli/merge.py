@@ -94,16 +94,17 @@ def command(
     if fmt == "json":
         click.echo(to_json(summary))
     else:  # with -q (quiet_option) nothing shows
-        print_summary(summary)
-    print_warnings(summary)  # on stderr, also with -q and --format json, as build's
+        print_summary(summary, report.timezone)
+    print_warnings(summary, report.timezone)  # on stderr, also with -q and --format json
 
 
-def print_summary(summary: dict[str, Any]) -> None:
-    """The closing table (on stderr, like ``aion build``'s) and the notes; every name from a
-    map or path is shown as plain text."""
+def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
+    """The closing table (on stderr, like ``aion build``'s) and the notes, their times on
+    ``zone``'s clock (the merged map's); every name from a map or path is shown as plain
+    text."""
     from rich.table import Table
 
-    from aion_cli.cli.build_summary import span_text
+    from aion_cli.cli.build_summary import clock_of, span_text
     from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
     from aion_cli.engine.time_text import utc_text
@@ -131,14 +132,14 @@ def print_summary(summary: dict[str, Any]) -> None:
     table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
     if summary.get("hours_observed"):
         table.add_row("hours observed", markup_safe(summary["hours_observed"]))
-    span = summary["time_span"]
+    span, shown = summary["time_span"], clock_of(zone)
     if span["start_ns"] is not None and span["end_ns"] is not None:
-        table.add_row("first time", utc_text(span["start_ns"]))
-        table.add_row("last time", utc_text(span["end_ns"]))
+        table.add_row("first time", shown(utc_text(span["start_ns"])))
+        table.add_row("last time", shown(utc_text(span["end_ns"])))
     table.add_row("time span", span_text(span["seconds"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
     print_table(table, err=True)
     out = console()
     out.print(f"[dim]lineage: {markup_safe(summary['lineage_reason'])}[/dim]", soft_wrap=True)
     for message in summary["notes"]:
-        out.print(f"[yellow]note:[/yellow] {markup_safe(message)}", soft_wrap=True)
+        out.print(f"[yellow]note:[/yellow] {markup_safe(shown(message))}", soft_wrap=True)
