@@ -60,3 +60,25 @@ def test_a_utc_maps_warnings_keep_utc(tmp_path: Path) -> None:
     assert built.exit_code == 0, built.stderr
     (said,) = _twice(built.stderr)
     assert "from 2026-01-05 09:00:00 UTC to 2026-01-05 09:02:39 UTC" in said
+
+
+def test_a_merges_first_and_last_time_are_on_the_maps_clock(tmp_path: Path) -> None:
+    """aion merge's table gave the merged map's first and last time in UTC beside its hours
+    observed on the map's clock; now both on the map's clock, with its offset."""
+    rows = [f"{k * 0.4:.2f},1,{k * 0.5:.1f},0.0,1.25,0.0" for k in range(400)]
+    src = tmp_path / "thor.csv"
+    src.write_text("\n".join(rows) + "\n")
+    maps = []
+    for day in ("2026-01-05", "2026-01-07"):
+        log, site = tmp_path / f"{day}.mcap", tmp_path / f"{day}.aion"
+        made = run("convert", src, "--layout", "thor", "--start", f"{day} 10:00", "--tz",
+                   "Europe/Stockholm", "-o", log, "-q")  # fmt: skip
+        assert made.exit_code == 0, made.stderr
+        built = run("build", log, "--derive-graph", "-o", site, "-q")
+        assert built.exit_code == 0, built.stderr
+        maps.append(site)
+    merged = run("merge", *maps, "-o", tmp_path / "both.aion")
+    assert merged.exit_code == 0, merged.stderr
+    said = " ".join(merged.stderr.split())
+    assert "first time │ 2026-01-05 10:00:00+01:00" in said
+    assert "last time │ 2026-01-07 10:02:39+01:00" in said
