@@ -72,7 +72,7 @@ def plan(
         made = Plan.from_routes(routes, zone, snapped, hour_flags(self._loaded, [t_ns])[0])
         return replace(made, notes=tuple(self._notes(time, zone, t_ns, None, "departures")))
 
-    from aion_cli.api_results import departure_rows
+    from aion_cli.api_results import alike_note, departure_rows
     from aion_cli.prediction_series import series_times
     from aion_cli.time_steps import parse_step
 
@@ -93,8 +93,10 @@ def plan(
         self._loaded, a.node_id, b.node_id, times, speed, nav, observed=observed
     )
     made = Plan.from_routes(plans[best], zone, snapped, observed[best])
-    notes = tuple(self._notes(None, zone, times[best], times, "departures"))
-    return replace(made, departures=departure_rows(plans, best, zone, observed), notes=notes)
+    rows = departure_rows(plans, best, zone, observed)
+    alike = [n for n in (alike_note(rows),) if n is not None]  # as plan --leave says
+    notes = (*self._notes(None, zone, times[best], times, "departures"), *alike)
+    return replace(made, departures=rows, notes=notes)
 
 
 plan.__qualname__ = "Map.plan"  # the method Map binds it as: its refusals name Map.plan

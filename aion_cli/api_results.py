@@ -267,6 +267,22 @@ def departure_rows(
     return rows
 
 
+def alike_note(rows: list[dict[str, Any]]) -> str | None:
+    """The note for departures that all cost the same (within ``routes.DEPARTURE_TIE``, as
+    the best is chosen): a static map's, whose "best" departure is only the earliest (at an
+    hour the map observed, where others were not); None when their costs differ."""
+    from aion_cli.routes import DEPARTURE_TIE
+
+    costs = [float(row["cost"]) for row in rows]
+    if len(costs) < 2 or max(costs) > min(costs) * (1.0 + DEPARTURE_TIE):
+        return None
+    which = "the earliest" if rows[0]["best"] else "the earliest at an hour the map observed"
+    return (
+        f"every departure costs the same ({min(costs):.1f}): the map forecasts no quieter time "
+        f"to leave among them, so {which} is shown"
+    )
+
+
 class Files(list["Path"]):
     """The files :meth:`aion_cli.api.Map.export` wrote (a list of ``Path``, as before), with
     the ``notes`` ``aion export`` prints beside them on stderr, in its order: what the

@@ -145,9 +145,9 @@ def command(
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
     from aion_cli.api import Plan
-    from aion_cli.api_results import departure_rows
+    from aion_cli.api_results import alike_note, departure_rows
     from aion_cli.cli.common import load
-    from aion_cli.cli.console import progress
+    from aion_cli.cli.console import note, progress
     from aion_cli.cli.plan_departures import departure_times, print_departures
     from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
@@ -210,6 +210,9 @@ def command(
         t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,
         "departures", text=time_text if departures is None and time_given else None,
     )
+    alike = None if departures is None else alike_note(departures)
+    if alike is not None:  # "best" would read as quieter
+        note(alike)
     if fmt == "json":
         click.echo(to_json(report))
     else:

@@ -63,6 +63,27 @@ def test_equal_costs_keep_the_earliest(office: Office) -> None:
     assert doc["depart"].startswith("2026-11-23 08:00")
 
 
+def test_departures_all_of_one_cost_are_said_to_be_alike(office: Office, sample_map: Path) -> None:
+    """Stop 67's audit: a static map (every departure 6.3) printed "best departure: 07:00" and
+    marked 07:00 "best", as if leaving then were quieter. Now a note says every departure
+    costs the same and the earliest is shown; a map whose hours differ has no such note."""
+    span = ("--leave", "2026-11-23 08:00..2026-11-23 09:00", "--step", "20m")
+    table = run("plan", office.map, "--from", "p0", "--to", "p2", "--tz", "UTC", *span)
+    assert table.exit_code == 0, table.stderr
+    cost = _plan(office.map, *span, ends=("p0", "p2"))["departures"][0]["cost"]
+    said = " ".join(table.stderr.split())
+    assert (
+        f"every departure costs the same ({cost:.1f}): the map forecasts no quieter time "
+        "to leave among them, so the earliest is shown"
+    ) in said
+    varied = run("plan", sample_map, "--from", "p103", "--to", "p2", "--tz", "UTC", "--leave",
+                 SPAN, "--step", "2h")  # fmt: skip
+    assert varied.exit_code == 0, varied.stderr
+    assert "costs the same" not in varied.stderr
+    quiet = run("plan", office.map, "--from", "p0", "--to", "p2", "--tz", "UTC", *span, "-q")
+    assert "costs the same" not in quiet.stderr
+
+
 def test_costs_within_a_tenth_of_a_percent_are_one_cost() -> None:
     """hG's map: 07:00 cost 8.000133 and 07:30 8.000100, both shown as 8.0; 07:30 was marked
     best, against "the earliest of equal ones". A cost truly lower by more than 0.1 % wins."""
