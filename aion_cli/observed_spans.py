@@ -34,7 +34,13 @@ def observed_note(added: int, delta: int, files: int) -> str:
     """The note of the windows without a message that ``--observed`` spans (or the spans the
     logs record) made observed (``added`` windows of ``delta`` ns), the time between the logs
     named only where there are logs apart (``files``: the log files read, a rosbag2 bag's
-    storage files one): one log's own declared span has no time between logs."""
+    storage files one): one log's own declared span has no time between logs. None added: a
+    note that says so in words."""
+    if added == 0:  # "0 window(s) ... (0 s), the time between the logs included" said less
+        return (
+            f"{OBSERVED_NOTE}every window the spans declare within the logs' time holds a "
+            "message already: they add none"
+        )
     between = ", the time between the logs included" if files > 1 else ""
     return (
         f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
