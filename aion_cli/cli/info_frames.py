@@ -21,13 +21,15 @@ def print_frame_notes(report: dict[str, Any]) -> None:
 
     has_tf = bool(report.get("will_use", {}).get("tf"))
     roots = report.get("tf_roots") or {}
+    several = int(report.get("recordings") or 1) > 1  # logs given (a split bag is one)
+    logs = "logs'" if several else "log's"
     for topic, frames in (report.get("frames_without_tf") or {}).items():
         named = ", ".join(f"'{f}'" for f in frames)
         apart = (
-            f"which the log's TF (its first {TF_SAMPLE} messages per TF topic) does not connect "
-            "to 'map'"
+            f"which the {logs} TF (its first {TF_SAMPLE} messages per TF topic) does not "
+            "connect to 'map'"
             if has_tf
-            else "and the log has no TF to 'map'"
+            else f"and the {'logs have' if several else 'log has'} no TF to 'map'"
         )
         tops = list(dict.fromkeys(roots.get(f, f) for f in frames))
         top = tops[0]

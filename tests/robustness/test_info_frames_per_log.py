@@ -30,7 +30,8 @@ def test_info_names_the_frames_of_every_log_and_says_to_build_them_apart(tmp_pat
     doc = json.loads(run("info", right, rear, "--format", "json").stdout)
     assert doc["frames_without_tf"] == {"/tracks": ["rear_laser", "right_laser"]}
     table = " ".join(run("info", right, rear).stderr.split())
-    assert "/tracks holds detections in frames 'rear_laser', 'right_laser'" in table
+    named = "/tracks holds detections in frames 'rear_laser', 'right_laser', and the logs have"
+    assert f"{named} no TF to 'map'" in table
     assert "build the logs of each frame into a map of its own" in table
     assert "(--map-frame rear_laser, --map-frame right_laser)" in table
     # the advice works: each frame's log builds with its --map-frame
@@ -45,7 +46,8 @@ def test_info_on_logs_of_one_frame_keeps_the_one_frame_advice(tmp_path: Path) ->
     doc = json.loads(run("info", first, second, "--format", "json").stdout)
     assert doc["frames_without_tf"] == {"/tracks": ["right_laser"]}
     table = " ".join(run("info", first, second).stderr.split())
-    assert "build with --map-frame right_laser (if it is a fixed frame)" in table
+    assert "and the logs have no TF to 'map': build with --map-frame right_laser (if it is a" \
+        " fixed frame)" in table
     assert "of its own" not in table
     built = run("build", first, second, "--map-frame", "right_laser", "-o", tmp_path / "r.aion")
     assert built.exit_code == 0, built.stderr
