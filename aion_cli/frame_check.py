@@ -101,7 +101,9 @@ def detection_frames(
     except AionError:
         return {}
     out: dict[str, set[str]] = {}
-    samples = first_of_each(logset, [info.topic for info in plan.detections], DETECTION_SAMPLE)
+    topics = [info.topic for info in plan.detections]
+    samples = first_of_each(logset, topics, DETECTION_SAMPLE)
+    later = _other_logs_samples(logset, topics, samples)
     for info in plan.detections:
         sample = samples.get(info.topic, [])
         adapter = adapters.get((info.topic, info.msgtype, info.encoding))
@@ -114,8 +116,7 @@ def detection_frames(
             decoded = adapter.decode(sample)
         except AionError:
             continue
-        out[info.topic] = set(decoded.frame_names())
-        out[info.topic] |= _other_logs_frames(logset, info.topic, sample, adapter)
+        out[info.topic] = set(decoded.frame_names()) | _frames(adapter, later.get(info.topic))
         if report is not None:
             counts = DetectionCounts()
             counts.count_empty(decoded)
@@ -125,26 +126,53 @@ def detection_frames(
     return out
 
 
-def _other_logs_frames(logset: Any, topic: str, sample: list[Any], adapter: Any) -> set[str]:
-    """The frames of the first :data:`DETECTION_SAMPLE` messages of ``topic`` in each log
-    given (recording) that holds it but has none in ``sample`` (the set's first messages):
-    a log whose tracker wrote in another frame (leg_tracker's 'rear_laser' beside
-    'right_laser') is named before the build meets it. Nothing for a set of one log."""
-    from aion_cli.errors import AionError
+def _other_logs_samples(
+    logset: Any, topics: list[str], samples: dict[str, list[Any]]
+) -> dict[str, list[Any]]:
+    """Per topic of ``topics``, the first :data:`DETECTION_SAMPLE` messages of each log given
+    (recording) that holds it but has none in ``samples`` (the set's first messages): a log
+    whose tracker wrote in another frame (leg_tracker's 'rear_laser' beside 'right_laser')
+    is named before the build meets it. Each log's topics are read together
+    (:func:`first_of_each`: a few passes, not one per topic). Nothing for a set of one log."""
     from aion_cli.formats.raw import recordings_of
 
-    holding = logset.recording_times([topic])
-    if len(holding) < 2:
-        return set()
-    sampled = set(recordings_of(sample).tolist())
-    out: set[str] = set()
-    for recording in sorted(set(holding) - sampled):
-        first = list(islice(logset.recording_messages(recording, [topic]), DETECTION_SAMPLE))
-        try:
-            out.update(adapter.decode(first).frame_names() if first else ())
-        except AionError:
-            continue
+    holders = {t: set(logset.recording_times([t])) for t in topics}
+    every = set().union(*holders.values())
+    if len(every) < 2:
+        return {}
+    sampled = {t: set(recordings_of(samples.get(t, [])).tolist()) for t in topics}
+    out: dict[str, list[Any]] = {}
+    for recording in sorted(every):
+        short = [t for t in topics if recording in holders[t] - sampled[t]]
+        if short:
+            got = first_of_each(_OneLog(logset, recording), short, DETECTION_SAMPLE)
+            for topic, messages in got.items():
+                out.setdefault(topic, []).extend(messages)
     return out
+
+
+@dataclass
+class _OneLog:
+    """One recording of a log set, read as :func:`first_of_each` reads a set."""
+
+    logset: Any
+    recording: int
+
+    def messages(self, topics: list[str], between: tuple[int, int] | None = None) -> Any:
+        return self.logset.recording_messages(self.recording, topics, between)
+
+
+def _frames(adapter: Any, messages: list[Any] | None) -> set[str]:
+    """The frames of ``messages`` decoded by ``adapter`` (none when they cannot be: the build
+    reports those)."""
+    from aion_cli.errors import AionError
+
+    if not messages:
+        return set()
+    try:
+        return set(adapter.decode(messages).frame_names())
+    except AionError:
+        return set()
 
 
 def _kept_none(topic: str, messages: int, decoded: Any, counts: Any) -> str | None:

@@ -201,7 +201,10 @@ class LogSet:
         return merge_by_start(self._sources, selected, between, unread, self._recordings)
 
     def recording_messages(
-        self, recording: int, topics: Iterable[str] | None = None
+        self,
+        recording: int,
+        topics: Iterable[str] | None = None,
+        between: tuple[int, int] | None = None,
     ) -> Iterator[RawMessage]:
         """:meth:`messages` of one recording only (:attr:`recordings`: a path given; the
         storage files of one bag together), marked with it; the other files are not opened."""
@@ -210,7 +213,7 @@ class LogSet:
         chosen = [k for k, r in enumerate(self._recordings) if r == recording]
         selected = None if topics is None else set(topics)
         return merge_by_start(
-            [self._sources[k] for k in chosen], selected, None, None, [recording] * len(chosen)
+            [self._sources[k] for k in chosen], selected, between, None, [recording] * len(chosen)
         )
 
     def recorded_windows(self, window_ns: int) -> Windows:
