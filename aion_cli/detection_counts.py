@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.types import I64
 
 #: Heading sources counted by :class:`DetectionCounts` (the build summary's order).
@@ -181,7 +182,7 @@ class DetectionCounts:
         row gave the rows beside it NaN or absurd speeds and headings (numpy warnings, "people
         move at 25,000 m/s"), and a heading source of its own."""
         if cell_size is None:
-            finite = in_range = np.isfinite(frames.xyz).all(axis=1)
+            finite = in_range = all_columns(np.isfinite(frames.xyz))
         else:
             from aion_cli.engine.spatial_hash import hashable_indices
 

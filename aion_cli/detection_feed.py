@@ -51,6 +51,7 @@ from aion_cli.detection_jobs import (
     _time_order,
 )
 from aion_cli.engine.heading_hold import LookAhead
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.types import I64, DetectionBatch
 from aion_cli.track_owners import TrackLinkers, concat_owners, estimate_by_owner, owners_of
 
@@ -357,7 +358,7 @@ class DetectionFeeder:
         if self.linker_config is None or len(frames) == 0:
             return out
         v = frames.velocity
-        moving = np.isfinite(v[:, :2]).all(axis=1) & ((v[:, 0] != 0) | (v[:, 1] != 0))
+        moving = all_columns(np.isfinite(v[:, :2])) & ((v[:, 0] != 0) | (v[:, 1] != 0))
         rows = np.flatnonzero((frames.track_id < 0) & ~moving & np.isnan(frames.yaw))
         if rows.size == 0:
             return out

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.types import F64, I64
 
 #: samples kept at most (16 bytes each in the manifest)
@@ -49,23 +50,33 @@ _M2 = np.uint64(0x94D049BB133111EB)
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 
 
-def _mix(h: U64) -> U64:
-    """splitmix64's finaliser on every element (wrapping uint64 arithmetic)."""
-    h = (h ^ (h >> np.uint64(30))) * _M1
-    h = (h ^ (h >> np.uint64(27))) * _M2
-    return h ^ (h >> np.uint64(31))
+def _mix_in_place(h: U64, scratch: U64) -> None:
+    """splitmix64's finaliser on every element of ``h``, in place (wrapping uint64
+    arithmetic; ``scratch``, as long, takes the shifts): ``h ^= h >> 30; h *= M1; h ^= h >>
+    27; h *= M2; h ^= h >> 31`` without a new array per step (issue 15: a build hashes
+    every detection)."""
+    for shift, factor in ((30, _M1), (27, _M2)):
+        np.right_shift(h, np.uint64(shift), out=scratch)
+        h ^= scratch
+        h *= factor
+    np.right_shift(h, np.uint64(31), out=scratch)
+    h ^= scratch
 
 
 def detection_hashes(t_ns: I64, xyz: F64) -> tuple[I64, U64]:
     """The finite rows' stamps (ns) and 64-bit hashes of (stamp in µs, x, y, z in mm)."""
     t = np.asarray(t_ns, np.int64).reshape(-1)
     p = np.asarray(xyz, np.float64).reshape(-1, 3)
-    ok = np.isfinite(p).all(axis=1) & (np.abs(p) < 1e12).all(axis=1)
-    t, p = t[ok], p[ok]
+    ok = all_columns(np.abs(p) < 1e12)  # NaN and ±inf compare false: the finite rows
+    if not ok.all():
+        t, p = t[ok], p[ok]
     cols = [np.floor_divide(t, 1000), *np.rint(p * 1000.0).astype(np.int64).T]
     h = np.zeros(len(t), np.uint64)
-    for col in cols:  # four columns, each a whole array
-        h = _mix(h ^ (col.view(np.uint64) + _GOLDEN))
+    scratch = np.empty_like(h)
+    for col in cols:  # four columns, each a whole array: h = _mix(h ^ (col + golden))
+        np.add(col.view(np.uint64), _GOLDEN, out=scratch)
+        h ^= scratch
+        _mix_in_place(h, scratch)
     return t, h
 
 

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.sensor_reach import any_within, count_within
 from aion_cli.engine.types import F64, I64, BoolA, Trajectory
 from aion_cli.engine.windows import window_index
@@ -70,7 +71,7 @@ class ObservationSource:
         xyz = np.asarray(trajectory.xyz, dtype=np.float64).reshape(-1, 3)
         if len(t) != len(xyz):
             raise InputError(f"trajectory has {len(t)} times but {len(xyz)} positions")
-        ok = np.isfinite(xyz[:, :2]).all(axis=1)
+        ok = all_columns(np.isfinite(xyz[:, :2]))
         t_all = np.concatenate([self.pose_t, t[ok]])
         xy_all = np.concatenate([self.pose_xy, xyz[ok, :2]])
         order = np.argsort(t_all, kind="stable")

@@ -18,6 +18,7 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.errors import CoordinateRangeError
 
@@ -66,7 +67,7 @@ def packable_mask(xyz: npt.ArrayLike, cell_size: float) -> BoolA:
     with np.errstate(invalid="ignore", over="ignore"):
         scaled = np.floor(p / cell_size)
         ok = np.isfinite(scaled) & (scaled >= INDEX_MIN) & (scaled <= INDEX_MAX)
-    return np.asarray(ok.all(axis=1), dtype=bool)
+    return all_columns(ok)
 
 
 def hashable_indices(xyz: npt.ArrayLike, cell_size: float) -> tuple[I64, BoolA, BoolA]:
@@ -84,10 +85,10 @@ def hashable_indices(xyz: npt.ArrayLike, cell_size: float) -> tuple[I64, BoolA, 
     if n and scaled.min() >= INDEX_MIN and scaled.max() <= INDEX_MAX:  # NaN fails both
         ok = np.ones(n, dtype=bool)
         return scaled.astype(np.int64), ok, ok
-    finite: BoolA = np.asarray(np.isfinite(p).all(axis=1), dtype=bool)
+    finite: BoolA = all_columns(np.isfinite(p))
     with np.errstate(invalid="ignore"):
-        inside = ((scaled >= INDEX_MIN) & (scaled <= INDEX_MAX)).all(axis=1)
-    in_range: BoolA = finite & np.asarray(inside, dtype=bool)
+        inside = all_columns((scaled >= INDEX_MIN) & (scaled <= INDEX_MAX))
+    in_range: BoolA = finite & inside
     ijk = np.where(in_range[:, None], scaled, 0.0).astype(np.int64)
     return ijk, finite, in_range
 

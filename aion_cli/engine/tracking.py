@@ -41,6 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.differencing import _NS, difference_tracks
+from aion_cli.engine.row_masks import all_columns
 from aion_cli.engine.types import F64, I64
 from aion_cli.errors import ConfigError, InputError
 
@@ -142,7 +143,7 @@ def link_tracks(
     track_id = np.full(n, -1, np.int64)
     heading = np.full(n, np.nan)
     speed = np.full(n, np.nan)
-    rows = np.flatnonzero(np.isfinite(p).all(axis=1))
+    rows = np.flatnonzero(all_columns(np.isfinite(p)))
     if rows.size == 0:
         return TrackLinks(track_id, heading, speed)
     rows = rows[np.argsort(t[rows], kind="stable")]
@@ -235,7 +236,7 @@ class TrackLinker:
         aligned with the input rows; :class:`InputError` for arrays of the wrong shape."""
         t, p = _inputs(t_ns, xy)
         out = np.full(len(t), -1, np.int64)
-        rows = np.flatnonzero(np.isfinite(p).all(axis=1))
+        rows = np.flatnonzero(all_columns(np.isfinite(p)))
         if rows.size == 0:
             return out
         if rows.size > 1 and not bool(np.all(t[rows][1:] >= t[rows][:-1])):
