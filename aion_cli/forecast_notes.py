@@ -23,7 +23,10 @@ Situations that surprise people and look like defects when unexplained:
   static rate, its detections over all its observed windows — a mean, so where one hour of the
   day held most detections (a crowd at 17:00) it lies above the quieter hours' own rates. A series
   names every such hour (:func:`series_notes`); ``predict``'s JSON flags each time
-  (:func:`hour_observed`), and ``aion info`` lists the hours observed (:func:`observed_hours`).
+  (:func:`~aion_cli.bins_observed.hour_observed`), the report's charts mark each hour
+  (:func:`~aion_cli.bins_observed.bin_observed`, per kind of day and hour: a Saturday from a
+  map of weekdays is marked too), and ``aion info`` lists the hours observed
+  (:func:`~aion_cli.bins_observed.observed_hours`).
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from aion_cli import note_words as words
+from aion_cli.bins_observed import calendar_of, hour_observed, hours_of, observed_bins
+from aion_cli.bins_observed import observed_hours as observed_hours
 from aion_cli.engine.temporal.calendar import DAY_NS
 
 if TYPE_CHECKING:
@@ -211,7 +216,7 @@ def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str 
     from aion_cli.engine.temporal.calendar import weekday_of
 
     start, end = manifest.start_ns, manifest.end_ns
-    calendar = _calendar(manifest.config, manifest.timezone)
+    calendar = calendar_of(manifest.config, manifest.timezone)
     if start is None or end is None or calendar is None:
         return None
     profile = calendar.profile
@@ -224,7 +229,7 @@ def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str 
     kind = weekday if profile == "week" else int(weekday >= 5)
     kinds = span_days if profile == "week" else (span_days >= 5).astype(np.int64)
     in_span = bool((kinds == kind).any())
-    bins = _observed_bins(manifest.families)
+    bins = observed_bins(manifest.families)
     observed = {b // calendar.bins_per_day for b in bins} if bins else None
     if in_span and (observed is None or kind in observed):
         return None
@@ -286,7 +291,7 @@ def series_notes(
     far = _far_end(manifest, times_ns, when, noun)
     if far is not None:
         notes.append(far)
-    calendar = _calendar(manifest.config, manifest.timezone)
+    calendar = calendar_of(manifest.config, manifest.timezone)
     if calendar is not None and all_static(manifest) is None and unseen_day(manifest, when) is None:
         unseen = _first_unseen_day(manifest, calendar, times_ns, shown)
         if unseen is not None:
@@ -301,25 +306,10 @@ def series_notes(
     notes.append(
         f"{n} of the {len(observed)} {noun} fall in hours no log observed on any day "
         f"({words.clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
-        f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): their forecast is "
+        f"{words.clock_ranges(hours_of(manifest, per_day), calendar.bin_s)}): their forecast is "
         f"extrapolated from the hours observed, not measured: {STATIC_THERE}"
     )
     return notes
-
-
-def hour_observed(manifest: Manifest, times_ns: list[int]) -> list[bool] | None:
-    """Per time, whether some day of the map's data observed its hour of the day (any kind
-    of day; the map's zone). None for a map that does not list its observed bins (older
-    maps) or has observed nothing."""
-    calendar = _calendar(manifest.config, manifest.timezone)
-    if calendar is None:
-        return None
-    per_day = calendar.bins_per_day
-    hours = _hours(manifest, per_day)
-    if not hours:
-        return None
-    at = calendar.profile_bin(list(times_ns)) % per_day
-    return [int(h) in hours for h in at]
 
 
 def _far_end(manifest: Manifest, times_ns: list[int], when: int, noun: str) -> str | None:
@@ -360,20 +350,6 @@ def _weekday_in(t_ns: int, shown: Zone | None) -> int:
     from aion_cli.engine.time_text import utc_of
 
     return (utc_of(t_ns) if shown is None else utc_of(t_ns).astimezone(shown.tz)).weekday()
-
-
-def _hours(manifest: Manifest, per_day: int) -> list[int]:
-    """The in-day bins the map observed on some kind of day (empty: not listed)."""
-    return sorted({b % per_day for b in _observed_bins(manifest.families)})
-
-
-def _observed_bins(families: Mapping[str, Any]) -> list[int]:
-    """The manifest's ``observed_bins``: whole numbers from 0 (a map file is untrusted input:
-    anything else in the list is left out, a list that is not one reads as empty)."""
-    observed = families.get("observed_bins")
-    if not isinstance(observed, list):
-        return []
-    return [b for b in observed if type(b) is int and 0 <= b < 1 << 20]
 
 
 _NO_LOG = "no log observed "
@@ -426,7 +402,7 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     None when some kind of day observed that hour (another kind's forecast follows it: see
     :func:`unseen_day`), or for a map that does not list its observed bins (older maps)."""
     observed = hour_observed(manifest, [t_ns])
-    calendar = _calendar(manifest.config, manifest.timezone)
+    calendar = calendar_of(manifest.config, manifest.timezone)
     if observed is None or observed[0] or calendar is None:
         return None
     per_day = calendar.bins_per_day
@@ -434,48 +410,6 @@ def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
     return (
         f"{_NO_LOG}{words.clock(at, calendar.bin_s)}-{words.clock(at + 1, calendar.bin_s)} "
         f"({calendar.timezone}) on any day (the map observed "
-        f"{words.clock_ranges(_hours(manifest, per_day), calendar.bin_s)}): the forecast at "
+        f"{words.clock_ranges(hours_of(manifest, per_day), calendar.bin_s)}): the forecast at "
         f"this hour is extrapolated from the hours observed, not measured: {STATIC_THERE}"
     )
-
-
-def observed_hours(
-    families: Mapping[str, Any], config: Mapping[str, Any], timezone: str | None
-) -> str | None:
-    """The hours a map observed, per kind of day, for ``aion info``: ``weekdays 09:00-18:00;
-    weekends none (UTC)``; None for a map that does not list its observed bins."""
-    calendar = _calendar(config, timezone)
-    if not isinstance(families.get("observed_bins"), list) or calendar is None:
-        return None
-    observed = _observed_bins(families)
-    per_day = calendar.bins_per_day
-    kinds = {"day": [""], "day_weekend": ["weekdays ", "weekends "]}.get(
-        calendar.profile, [f"{name[:3]} " for name in words.WEEKDAYS]
-    )
-    by_kind: dict[str, list[str]] = {}
-    for k, label in enumerate(kinds):
-        hours = sorted(b - k * per_day for b in observed if b // per_day == k)
-        text = words.clock_ranges(hours, calendar.bin_s) if hours else "none"
-        by_kind.setdefault(text, []).append(label.strip())
-    parts = [
-        (", ".join(labels) + " " if any(labels) else "") + text
-        for text, labels in by_kind.items()
-    ]
-    return f"{'; '.join(parts)} ({calendar.timezone})"
-
-
-def _calendar(config: Mapping[str, Any], timezone: str | None) -> Any:
-    """The map's calendar (zone, profile, bin length) from its config; None for a zone this
-    machine does not know (say nothing rather than fail) or a config it cannot read."""
-    from aion_cli.engine.temporal.calendar import Calendar
-    from aion_cli.errors import AionError
-
-    zone = str(config.get("timezone", timezone or "UTC"))
-    try:
-        return Calendar(
-            zone,
-            str(config.get("profile", "day_weekend")),
-            float(config.get("profile_bin_s", 3600.0)),
-        )
-    except (AionError, TypeError, ValueError):
-        return None
