@@ -72,6 +72,10 @@ class Series:
     unobserved: Any = None
     """Per time, whether its hour of the day (in the map's zone) was observed on no kind of
     day: the forecast there is extrapolated (None: not known)."""
+    other_days: Any = None
+    """Per time, whether its hour was observed on another kind of day only, never on its own
+    (a Saturday from a map of weekdays; the map's zone): the forecast there follows the days
+    the map saw (``bins_observed.bin_observed``; None: not known)."""
 
 
 @dataclass(frozen=True)
@@ -104,6 +108,9 @@ class ReportContent:
     """Whether any day of the map's data observed ``t_ns``'s hour of the day (``aion predict
     --time``'s JSON ``hour_observed``; where not, the busiest entries and the map's picture
     are extrapolated); None as observed, or for a map that does not list its hours."""
+    hours_observed: str | None = None
+    """The hours the map observed per kind of day, as ``aion info`` lists them
+    (``weekdays 09:00-18:00; weekends none (UTC)``); None for a map that does not list them."""
 
 
 def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> ReportContent:
@@ -111,12 +118,14 @@ def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> Re
     busiest entries at ``t_ns`` (None: as observed)."""
     from pathlib import Path
 
+    from aion_cli.bins_observed import observed_hours
     from aion_cli.manifest import Manifest
     from aion_cli.predictions import hour_flags
 
     raw = dict(loaded.manifest)
     raw.setdefault("state", {})
-    shown = Manifest.from_dict(raw).shown()
+    manifest = Manifest.from_dict(raw)
+    shown = manifest.shown()
     observed = observed_coverage(loaded, shown)
     activity, notes = activity_series(loaded, zone, t_ns, observed)
     busiest, matched = busiest_entries(loaded, t_ns)
@@ -134,6 +143,7 @@ def gather(loaded: LoadedMap, map_path: Any, zone: Zone, t_ns: int | None) -> Re
         matched=matched,
         notes=tuple(notes),
         hour_observed=hour_flags(loaded, [t_ns])[0],
+        hours_observed=observed_hours(manifest.families, manifest.config, manifest.timezone),
     )
 
 
@@ -271,8 +281,8 @@ def activity_series(
     names, columns = _top_columns(loaded, [str(i) for i in ids], flows, times[-1].size)
     out, at = [], 0
     for (title, _, _, _), when in zip(spans, times, strict=True):
-        unobserved = _unobserved_hours(loaded, when)
-        out.append(Series(title, when, names, columns[at : at + when.size], unobserved))
+        flags = _extrapolated(loaded, when)
+        out.append(Series(title, when, names, columns[at : at + when.size], *flags))
         at += when.size
     return tuple(out), notes + _unseen_days(loaded, [s[0] for s in spans[:2]], times[:2])
 
@@ -292,16 +302,24 @@ def _unseen_days(loaded: LoadedMap, titles: list[str], times: list[Any]) -> list
     return [f"{title}: {note}" for title, note in zip(titles, notes, strict=True) if note]
 
 
-def _unobserved_hours(loaded: LoadedMap, times: Any) -> Any:
-    """Per time, whether no kind of day observed its hour: the hours the forecast notes and
-    ``hour_observed`` call extrapolated (``predictions.hour_flags``); None for a map that
-    does not list its observed hours."""
-    from aion_cli.predictions import hour_flags
+def _extrapolated(loaded: LoadedMap, times: Any) -> tuple[Any, Any]:
+    """Per time, whether no kind of day observed its hour (the hours the forecast notes and
+    ``hour_observed`` call extrapolated), and whether only another kind of day did (a Saturday
+    from a map of weekdays, which ``unseen_day``'s note names): ``bins_observed``'s
+    ``hour_observed`` and ``bin_observed``; (None, None) for a map that does not list its
+    observed hours."""
+    from aion_cli.bins_observed import bin_observed, hour_observed
+    from aion_cli.manifest import Manifest
 
-    flags = hour_flags(loaded, [int(t) for t in times])
-    if any(seen is None for seen in flags):
-        return None
-    return ~np.asarray(flags, bool)
+    raw = dict(loaded.manifest or {})
+    raw.setdefault("state", {})
+    manifest = Manifest.from_dict(raw)
+    listed = [int(t) for t in times]
+    hours, bins = hour_observed(manifest, listed), bin_observed(manifest, listed)
+    if hours is None or bins is None:
+        return None, None
+    hour, own = np.asarray(hours, bool), np.asarray(bins, bool)
+    return ~hour, hour & ~own
 
 
 def _top_columns(

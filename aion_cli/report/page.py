@@ -252,6 +252,13 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
             " Grey bands, dotted curves: hours of the day no log observed on any day; the "
             "forecast there is extrapolated from the hours observed, not measured."
         )
+    if any(s.other_days is not None and s.other_days.any() for s in c.activity):
+        seen = f" (it observed {escape(c.hours_observed)})" if c.hours_observed else ""
+        grey += (
+            " Hatched bands, dotted curves: hours of a kind of day the map never observed at "
+            f"that hour{seen}; the forecast there follows the rhythm of the days it saw, not "
+            "measured."
+        )
     out.append(
         f"<p>Predicted flow (expected detections per {window} window, summed over each room's "
         f"places as <code>aion predict --layer rooms</code> sums them), {lines}.{grey}</p>"

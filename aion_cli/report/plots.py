@@ -39,6 +39,13 @@ ROSES_CAPTION = (
 ROSE_TITLE_CHARS = 34
 """The longest room name a rose's title shows (about the rose's width at 9 points)."""
 RING_LABEL_LIFT_PT = 6.0
+UNOBSERVED_LABEL = "hours no log observed (extrapolated, dotted)"
+"""The legend of an activity chart's grey bands: hours of the day no kind of day observed."""
+OTHER_DAYS_LABEL = (
+    "a kind of day the map did not observe at this hour\n(follows the days seen, dotted)"
+)
+"""The legend of its hatched bands: hours only another kind of day observed (a Saturday from a
+map of weekdays), where the forecast follows the rhythm of the days the map saw."""
 """How far (points) a rose's outer ring label is moved out, clear of the circle."""
 
 
@@ -224,11 +231,7 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
     times = np.asarray(series.times_ns, dtype=np.int64)
     hours = _clock_hours(times, zone)
     week = times.size and hours[-1] > 24
-    guessed = (
-        np.zeros(times.size, bool)
-        if series.unobserved is None
-        else np.asarray(series.unobserved, bool).reshape(-1)
-    )
+    guessed = _flags(series.unobserved, times.size) | _flags(series.other_days, times.size)
     # the extrapolated stretches dotted, joined to the measured ones at their ends
     near = guessed | np.r_[guessed[1:], False] | np.r_[False, guessed[:-1]]
     for k, name in enumerate(series.names):
@@ -248,7 +251,9 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
                 linewidth=1.0,
                 linestyle=":",
             )
-    _shade_unobserved(ax, hours, series.unobserved)
+    _shade(ax, hours, series.unobserved, UNOBSERVED_LABEL, color="#d9d9d9", alpha=0.6)
+    _shade(ax, hours, series.other_days, OTHER_DAYS_LABEL, facecolor="none",
+           edgecolor="#9a9a9a", hatch="//")
     if week:
         start = from_ns(int(times[0]), zone).date()
         ax.set_xticks(np.arange(0, 7 * 24 + 1, 24))
@@ -267,22 +272,26 @@ def activity_png(series: Series, ylabel: str, path: Path, zone: Zone) -> Path:
     return _save(fig, path)
 
 
-def _shade_unobserved(ax: Any, hours: Any, unobserved: Any) -> None:
-    """Grey bands over the runs of times whose hour no log observed (each time stands for
-    the step up to the next), labelled once in the legend."""
-    if unobserved is None or not np.any(unobserved) or len(hours) == 0:
+def _flags(flags: Any, n: int) -> Any:
+    """``flags`` (one per time) as a boolean array; all False when not known (None)."""
+    return np.zeros(n, bool) if flags is None else np.asarray(flags, bool).reshape(-1)
+
+
+def _shade(ax: Any, hours: Any, flags: Any, label: str, **style: Any) -> None:
+    """Bands (``style``: grey, or hatched) over the runs of times ``flags`` marks (each time
+    stands for the step up to the next), labelled once in the legend."""
+    if flags is None or not np.any(flags) or len(hours) == 0:
         return
-    flags = np.asarray(unobserved, bool)
+    marked = np.asarray(flags, bool)
     step = float(hours[1] - hours[0]) if len(hours) > 1 else 1.0
-    edges = np.flatnonzero(np.diff(np.r_[0, flags.astype(np.int8), 0]))
+    edges = np.flatnonzero(np.diff(np.r_[0, marked.astype(np.int8), 0]))
     for k, (a, b) in enumerate(zip(edges[::2], edges[1::2], strict=True)):
         ax.axvspan(
             float(hours[a]),
             float(hours[b - 1]) + step,
-            color="#d9d9d9",
-            alpha=0.6,
             linewidth=0,
-            label="hours no log observed (extrapolated, dotted)" if k == 0 else None,
+            label=label if k == 0 else None,
+            **style,
         )
 
 
