@@ -64,14 +64,23 @@ def mean_spread(value: Any, digits: int = 2) -> str:
     return f"{fixed(mean, digits)} ± {fixed(spread, digits)}"
 
 
+#: spans of this many seconds or more read in days and hours (``2d00h``), not ``48h00m00s``
+DAYS_FROM_S = 2 * 86400
+
+
 def span_text(seconds: float | None) -> str:
-    """``120h00m00s``, ``5m07s``; a span under a minute in seconds (``0.3 s``: a 0.3 s log
-    read ``0m00s``)."""
+    """``5m07s``, ``47h59m59s``; a span under a minute in seconds (``0.3 s``: a 0.3 s log
+    read ``0m00s``); two days or more in days and hours, to the nearest hour, thousands
+    separated (``5d00h``; a log stamped mostly in 1970 and once in 2026 spans
+    ``20,454d00h``, where it read ``490896h00m00s``)."""
     if seconds is None:
         return "-"
     if seconds < 59.5:
         return f"{seconds:.1f} s"
     whole = round(seconds)
+    if whole >= DAYS_FROM_S:
+        days, hours = divmod((whole + 1800) // 3600, 24)
+        return f"{days:,}d{hours:02d}h"
     hours, rest = divmod(whole, 3600)
     minutes, secs = divmod(rest, 60)
     return f"{hours}h{minutes:02d}m{secs:02d}s" if hours else f"{minutes}m{secs:02d}s"

@@ -103,7 +103,7 @@ def _hierarchy(path: Path) -> dict[str, Any]:
 
 
 def span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) -> str:
-    """``120h00m00s: Mon 2026-01-05 00:00 to Sat 2026-01-10 00:00 UTC``: the span's ends in
+    """``5d00h: Mon 2026-01-05 00:00 to Sat 2026-01-10 00:00 UTC``: the span's ends in
     the map's zone with their weekdays (which kinds of day the map can know); the length
     alone for a zone this machine does not know or a map without data."""
     from aion_cli.engine.time_text import from_ns

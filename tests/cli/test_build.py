@@ -461,5 +461,25 @@ def test_time_spans_read_in_seconds_under_a_minute() -> None:
     assert span_text(0.3) == "0.3 s"
     assert span_text(59.4) == "59.4 s"
     assert span_text(59.6) == "1m00s"
-    assert span_text(432000.0) == "120h00m00s"
     assert span_text(None) == "-"
+
+
+def test_time_spans_of_two_days_or_more_read_in_days_and_hours() -> None:
+    """A log stamped mostly in 1970 and once in 2026 read ``491015h59m59s``: under two days a
+    span keeps hours, minutes and seconds; from two days on it reads days and hours."""
+    from datetime import datetime, timezone
+
+    from aion_cli.cli.build_summary import span_text
+
+    day = 86400
+    assert span_text(day + 23 * 3600 + 59 * 60 + 59) == "47h59m59s"  # 1 d 23 h 59 m 59 s
+    assert span_text(2 * day - 0.4) == "2d00h"  # rounds to the second first, as the rest do
+    assert span_text(2 * day) == "2d00h"
+    assert span_text(5 * day) == "5d00h"  # the sample's 5 days read 120h00m00s
+    assert span_text(2 * day + 5 * 3600 + 29 * 60) == "2d05h"  # to the nearest hour
+    assert span_text(2 * day + 5 * 3600 + 30 * 60) == "2d06h"
+    # 56 years from 1970 to 2026: 56 x 365 days and one more for each of the 14 leap years
+    # 1972, 1976, ..., 2024
+    utc = timezone.utc
+    years = (datetime(2026, 1, 1, 15, tzinfo=utc) - datetime(1970, 1, 1, tzinfo=utc))
+    assert span_text(years.total_seconds()) == f"{56 * 365 + 14:,}d15h" == "20,454d15h"

@@ -394,7 +394,7 @@ def test_the_busiest_count_is_the_maps_places_and_cells_not_its_entries(
 def test_a_short_span_reads_as_info_gives_it(tmp_path: Path) -> None:
     """A 10-s recording of the small office (messages at 0 and 5 s): the page's time span
     read "(0.0 h)" where aion info says "5.0 s"; it now gives info's span text, as it does
-    for a long map ("120h00m00s" for the sample, not "120.0 h")."""
+    for a long map ("5d00h" for the sample, not "120.0 h")."""
     from tests.cli.logdata import write_office_log
 
     log = tmp_path / "tiny.mcap"
