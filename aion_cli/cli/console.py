@@ -124,6 +124,9 @@ def warn(message: str) -> None:
 #: how many warnings of one shape are printed before the rest are counted in one line
 WARNINGS_PER_SHAPE = 3
 _NUMBERS = re.compile(r"\d[\d,.:_TZ+-]*")
+#: a warning about one file: its name (no space, colon or slash: not a topic such as ``/tf``;
+#: with a suffix such as ``.mcap``), ``": "`` and what is said of it
+_FILE_FIRST = re.compile(r"([^\s:/\\]+\.[A-Za-z][A-Za-z0-9]{0,7}): (.+)", re.DOTALL)
 
 
 def warning_shape(message: str) -> str:
@@ -132,13 +135,42 @@ def warning_shape(message: str) -> str:
     return _NUMBERS.sub("#", message)
 
 
+def across_files(messages: list[str], named: int = WARNINGS_PER_SHAPE) -> list[str]:
+    """``messages`` with a warning said alike of several files (``a.mcap: topic example
+    skipped ...``, the text after the file's name the same) as one line, where the first of
+    them was, naming how many files and the first ``named`` of them: ``topic example skipped
+    ... in 154 files (a.mcap, b.mcap, c.mcap and 151 more)``. A warning of one file, or one
+    whose text differs in more than the file's name, is left as it is (:func:`warning_shape`
+    keeps telling files apart: ``x.mcap: chunk at byte 33 skipped`` and ``y.mcap: ...`` are
+    two problems)."""
+    from aion_cli.listing import first_few
+    from aion_cli.number_text import counted
+
+    said = [_FILE_FIRST.fullmatch(message) for message in messages]
+    files: dict[str, list[str]] = {}  # what is said: the files it is said of, in order
+    for match in said:
+        if match and match[1] not in files.setdefault(match[2], []):
+            files[match[2]].append(match[1])
+    out: list[str] = []
+    done: set[str] = set()
+    for message, match in zip(messages, said, strict=True):
+        if not match or len(files[match[2]]) < 2:
+            out.append(message)
+        elif match[2] not in done:  # once, where the first file's warning was
+            done.add(match[2])
+            alike = files[match[2]]
+            out.append(f"{match[2]} in {counted(len(alike), 'file')} ({first_few(alike, named)})")
+    return out
+
+
 def warn_each(messages: list[str], limit: int = WARNINGS_PER_SHAPE) -> None:
-    """Print ``messages`` as warnings, at most ``limit`` of each :func:`warning_shape` and then
-    one line counting the rest, so 500 skipped messages do not bury the summary (the JSON
-    output keeps every one)."""
+    """Print ``messages`` as warnings, one line for a warning said alike of several files
+    (:func:`across_files`), at most ``limit`` of each :func:`warning_shape` and then one line
+    counting the rest, so 500 skipped messages do not bury the summary (the JSON output keeps
+    every one)."""
     counts: dict[str, int] = {}
     first: dict[str, str] = {}
-    for message in messages:
+    for message in across_files(messages):
         shape = warning_shape(message)
         counts[shape] = counts.get(shape, 0) + 1
         first.setdefault(shape, message)

@@ -467,7 +467,7 @@ def test_time_spans_read_in_seconds_under_a_minute() -> None:
 def test_time_spans_of_two_days_or_more_read_in_days_and_hours() -> None:
     """A log stamped mostly in 1970 and once in 2026 read ``491015h59m59s``: under two days a
     span keeps hours, minutes and seconds; from two days on it reads days and hours."""
-    from datetime import datetime, timezone
+    from datetime import UTC, datetime
 
     from aion_cli.cli.build_summary import span_text
 
@@ -480,6 +480,5 @@ def test_time_spans_of_two_days_or_more_read_in_days_and_hours() -> None:
     assert span_text(2 * day + 5 * 3600 + 30 * 60) == "2d06h"
     # 56 years from 1970 to 2026: 56 x 365 days and one more for each of the 14 leap years
     # 1972, 1976, ..., 2024
-    utc = timezone.utc
-    years = (datetime(2026, 1, 1, 15, tzinfo=utc) - datetime(1970, 1, 1, tzinfo=utc))
+    years = datetime(2026, 1, 1, 15, tzinfo=UTC) - datetime(1970, 1, 1, tzinfo=UTC)
     assert span_text(years.total_seconds()) == f"{56 * 365 + 14:,}d15h" == "20,454d15h"
