@@ -85,7 +85,7 @@ def _worker(
     parent would have to fill before any worker reads it."""
     import signal
 
-    from aion_cli.result_files import send
+    from aion_cli.formats.interrupts import release_held_signals
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers on Ctrl-C
     # and it stops them with SIGTERM: a forked worker inherits the CLI's handler, which
@@ -94,6 +94,11 @@ def _worker(
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if hasattr(signal, "SIGHUP"):  # a closed terminal hangs the parent up, which stops them
         signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    # a forked worker starts with the three blocked (the parent starts the workers inside
+    # interrupts_held(forks=True)): one sent before this line (Ctrl-C at once, the parent's
+    # SIGTERM) is pending, and acts now, by the handlers above
+    release_held_signals()
+    from aion_cli.result_files import send
     while (task := _take(tasks, next_task)) is not None:
         sink = QueueProgress(out, task.index)
         try:
@@ -135,6 +140,7 @@ def _run(
     folder: Path,
 ) -> tuple[Folded, list[ShardResult]]:
     from aion_cli.errors import AionError
+    from aion_cli.formats.interrupts import interrupts_held
     from aion_cli.result_files import receive
 
     ctx = _context()
@@ -146,8 +152,13 @@ def _run(
     ]
     bars = _Bars(progress, tasks)
     try:
-        for proc in procs:
-            proc.start()
+        # Ctrl-C (or SIGTERM) while they start is held back until every worker has: one
+        # forked but not yet known to its Process (a KeyboardInterrupt between the fork and
+        # its return) would not be stopped below and would build on, an orphan; a worker
+        # starts with the signals blocked until it has its own handlers (_worker)
+        with interrupts_held(forks=True):
+            for proc in procs:
+                proc.start()
         done: dict[int, ShardResult] = {}
         summaries: list[ShardResult] = []
         folded = Folded(previous)
@@ -198,7 +209,8 @@ def _stop(procs: list[Any]) -> None:
         if proc.is_alive():
             proc.terminate()
     for proc in procs:
-        proc.join(timeout=10)
+        if proc.pid is not None:  # started (a fork that failed leaves the rest unstarted)
+            proc.join(timeout=10)
 
 
 def _next(out: Any, procs: list[Any]) -> Any:

@@ -23,7 +23,7 @@ _HELD_SIGNALS = tuple(
 
 
 @contextlib.contextmanager
-def interrupts_held() -> Iterator[None]:
+def interrupts_held(forks: bool = False) -> Iterator[None]:
     """Hold SIGINT, SIGTERM and SIGHUP back for the block; delivered (and raising) right after.
 
     Creating a temporary file or folder and learning its name are two steps; an interrupt
@@ -34,14 +34,28 @@ def interrupts_held() -> Iterator[None]:
     say, and Python then raises it in the main thread all the same); the noted signal goes to
     the previous handler after the block. Elsewhere (or where a handler was installed by C
     code, which Python cannot put back) the signals are blocked in this thread.
+
+    ``forks``: processes are forked in the block (a parallel build's workers). They are
+    blocked in this thread too, so that a child starts with them blocked (a fork inherits the
+    thread's mask, not the signals pending) until :func:`release_held_signals`, once its own
+    handlers are in place: a Ctrl-C or SIGTERM that reaches it first acts then, as its new
+    handlers say, not as the parent's handlers it was forked with (which raised
+    KeyboardInterrupt in the worker and printed its traceback).
     """
     main = threading.current_thread() is threading.main_thread()
     if main and all(signal.getsignal(held) is not None for held in _HELD_SIGNALS):
-        with _handlers_held():
+        with _handlers_held(), (_signals_masked() if forks else contextlib.nullcontext()):
             yield
         return
     with _signals_masked():
         yield
+
+
+def release_held_signals() -> None:
+    """Unblock SIGINT, SIGTERM and SIGHUP in this thread: in a process forked inside
+    ``interrupts_held(forks=True)``, once its handlers are set (a signal pending acts now)."""
+    with contextlib.suppress(AttributeError, OSError, ValueError):  # no pthread_sigmask
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, set(_HELD_SIGNALS))
 
 
 @contextlib.contextmanager
@@ -74,7 +88,8 @@ def _deliver(signum: int, handler: Any) -> None:
 
 @contextlib.contextmanager
 def _signals_masked() -> Iterator[None]:
-    """:func:`interrupts_held` outside the main thread: block the signals in this thread."""
+    """:func:`interrupts_held` outside the main thread (or for the processes forked in the
+    block): block the signals in this thread."""
     try:
         old = signal.pthread_sigmask(signal.SIG_BLOCK, ())  # the mask now (runs pending handlers)
     except (AttributeError, OSError, ValueError):  # no pthread_sigmask on this platform

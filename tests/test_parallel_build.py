@@ -214,6 +214,23 @@ _CLI_WITHOUT_BREAKS = (
 )
 """``aion`` in a process whose planner tells no session boundary (:func:`_no_breaks`)."""
 
+_CLI_SLOW_WORKERS = (
+    "import os, time, multiprocessing.util as u\n"
+    "def hold(t):\n"
+    "    at = os.path.join(os.environ['STARTING'], str(os.getpid()))\n"
+    "    open(at, 'w').close()\n"
+    "    while not os.path.exists(os.path.join(os.environ['STARTING'], 'go')):\n"
+    "        t.sleep(0.01)\n"
+    "    open(at + '.on', 'w').close()\n"
+    "u.register_after_fork(time, hold)\n"
+    + _CLI_WITHOUT_BREAKS
+)
+"""That ``aion``, whose forked workers, before they run ``process_pool._worker`` (in an
+after-fork hook of ``multiprocessing``, which runs in the child before its target), make a
+file named by their pid in the folder ``$STARTING``, wait for a file ``go`` there, and make
+``<pid>.on``: held at the moment they still have the parent's signal handlers (a loaded
+machine can make it as long)."""
+
 
 def _sessions(tmp_path: Path, starts: tuple[str, ...]) -> list[Path]:
     """Simulated Hydra sessions of the office (half a day each, their graphs growing and
@@ -380,7 +397,14 @@ def test_workers_fork_beside_the_log_hashing_thread_only(
 
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list child processes")
-def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) -> None:
+@pytest.mark.parametrize("early", [False, True], ids=["running", "terminal-as-they-start"])
+def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(
+    tmp_path: Path, early: bool
+) -> None:
+    # early: Ctrl-C in a terminal (SIGINT to the process group: the workers too) while the
+    # workers are still starting (_CLI_SLOW_WORKERS); they raised KeyboardInterrupt by the
+    # parent's handler and printed a traceback, and so did the parent's SIGTERM stopping them
+    # at that moment (the flake of stop 66 on a loaded machine: SIGINT as the workers forked)
     logs = []
     for k in range(4):  # simulated patrols: seconds of work each
         log = tmp_path / f"sim{k}.mcap"
@@ -393,22 +417,49 @@ def test_ctrl_c_stops_every_worker_and_keeps_the_previous_map(tmp_path: Path) ->
     out = tmp_path / "map.aion"
     _build(logs[:1], out, 1)
     before = hashlib.sha256(out.read_bytes()).hexdigest()
+    starting = tmp_path / "starting"
+    starting.mkdir()
     proc = subprocess.Popen(  # (told no session boundary, so that the workers do start)
-        [sys.executable, "-c", _CLI_WITHOUT_BREAKS, "build", *map(str, logs[1:]), "--map",
-         str(out), "--workers", "2", "-q"],
+        [sys.executable, "-c", _CLI_SLOW_WORKERS if early else _CLI_WITHOUT_BREAKS, "build",
+         *map(str, logs[1:]), "--map", str(out), "--workers", "2", "-q"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "STARTING": str(starting)},
     )
-    deadline = time.monotonic() + 30
-    while len(_children(proc.pid)) < 2 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    workers = _children(proc.pid)
-    assert len(workers) >= 2, "the workers did not start"
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err
-    assert "Traceback" not in err, err  # the workers end quietly (one line from the parent)
+    try:
+        # until the workers exist (or the build has ended without them): reading the logs before
+        # can take long on a loaded machine, so the bound is only against a hang
+        deadline = time.monotonic() + 300
+        while len(_children(proc.pid)) < 2 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        workers = _children(proc.pid)
+        assert len(workers) >= 2, "the workers did not start"
+        if early:  # Ctrl-C reaches both workers before their handlers are set (then the parent)
+            while len(list(starting.iterdir())) < 2 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert sorted(int(f.name) for f in starting.iterdir()) == sorted(workers)
+            for worker in workers:
+                os.kill(worker, signal.SIGINT)
+            (starting / "go").touch()
+            while time.monotonic() < deadline and [
+                w for w in workers if _running(w) and not (starting / f"{w}.on").exists()
+            ]:
+                time.sleep(0.05)
+        went_on = [w for w in workers if not early or (starting / f"{w}.on").exists()]
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        assert went_on == workers, f"a worker ended at the Ctrl-C it had as it started: {err}"
+        assert proc.returncode == 130, err
+        # the workers end quietly: only the parent's error and hint (a worker interrupted as it
+        # started printed "Process ForkProcess-2:" and a traceback, cut short or not)
+        lines = [line for line in err.splitlines() if line.strip()]
+        assert lines[0].startswith("error: interrupted"), err
+        assert all(line.startswith("hint: ") for line in lines[1:]), err
+    finally:  # not left building if an assertion failed
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
     assert hashlib.sha256(out.read_bytes()).hexdigest() == before
     # the workers are gone too: the parent has exited, so an orphan would have a new parent
     # (init or a subreaper) and be looked up by its own pid
