@@ -304,3 +304,50 @@ def test_a_ctrl_c_as_the_map_lock_is_made_leaves_no_lock(
     assert made == ["m.aion.lock"]
     assert target.read_bytes() == old
     assert sorted(os.listdir(tmp_path)) == ["m.aion"]
+
+
+@pytest.mark.skipif(not hasattr(os, "fork") or not hasattr(signal, "pthread_sigmask"),
+                    reason="needs fork and pthread_sigmask")  # fmt: skip
+def test_a_process_forked_with_interrupts_held_gets_them_once_its_handlers_are_set() -> None:
+    """``interrupts_held(forks=True)`` (a parallel build starting its workers): a child forked
+    in the block starts with SIGINT, SIGTERM and SIGHUP blocked, so a SIGTERM sent before its
+    handlers are set waits, and acts by them (here the default: it ends) at
+    ``release_held_signals``; the parent's mask is as before the block, and a Ctrl-C sent
+    during the block raises right after it, once."""
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, ())
+    read, write = os.pipe()
+    pids: list[int] = []
+    with pytest.raises(KeyboardInterrupt):
+        _fork_with_interrupts_held(write, pids)
+    os.close(write)
+    _, status = os.waitpid(pids[0], 0)
+    with os.fdopen(read, "rb") as said:
+        assert said.read() == b"held"
+    assert os.WIFSIGNALED(status)
+    assert os.WTERMSIG(status) == signal.SIGTERM
+    assert signal.pthread_sigmask(signal.SIG_BLOCK, ()) == before
+
+
+def _fork_with_interrupts_held(write: int, pids: list[int]) -> None:
+    """Fork a child inside ``interrupts_held(forks=True)`` (its pid into ``pids``) that sends
+    itself SIGTERM, writes to ``write`` whether the signals were blocked, and releases them;
+    then a Ctrl-C in the block."""
+    from aion_cli.formats.interrupts import interrupts_held, release_held_signals
+
+    with interrupts_held(forks=True):
+        pid = os.fork()
+        if pid == 0:  # the child: nothing but os calls, then os._exit
+            code = 1
+            try:
+                blocked = signal.pthread_sigmask(signal.SIG_BLOCK, ())
+                held = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                os.kill(os.getpid(), signal.SIGTERM)  # pending, not acted on
+                os.write(write, b"held" if held <= set(blocked) else b"not blocked")
+                release_held_signals()  # the SIGTERM ends the child here
+                os.write(write, b", lived on")
+                code = 0
+            finally:
+                os._exit(code)
+        pids.append(pid)
+        signal.raise_signal(signal.SIGINT)  # noted, delivered after the block
