@@ -52,7 +52,8 @@ def test_workers_that_cannot_import_aion_are_a_clear_error(tmp_path: Path) -> No
         "from distributed.cli.dask_worker import main; main()"
     )
     with distributed.LocalCluster(
-        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": ":0"},  # HTTP on a free port, not 8787
     ) as cluster, distributed.Client(cluster, set_as_default=False) as client:
         address = cluster.scheduler_address
         worker = subprocess.Popen(
@@ -93,7 +94,8 @@ def test_a_scheduler_without_workers_is_a_clear_error(
             raised.append(exc)
 
     with distributed.LocalCluster(
-        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None
+        n_workers=0, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=None,
+        scheduler_kwargs={"dashboard_address": ":0"},  # HTTP on a free port, not 8787
     ) as cluster:
         # in a thread: without the check the build never returns (while the cluster runs)
         thread = threading.Thread(target=build, args=(cluster.scheduler_address,), daemon=True)
@@ -178,6 +180,8 @@ def test_logs_named_relative_to_the_client_are_found_by_workers_elsewhere(
     monkeypatch.chdir(elsewhere)  # the workers' working directory
     with distributed.LocalCluster(
         n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None,
+        # the scheduler's HTTP server on a free port, not on 8787 (taken: a warning)
+        scheduler_kwargs={"dashboard_address": ":0"},
         host="127.0.0.1",
     ) as cluster:
         monkeypatch.chdir(folder)  # the client's: the logs named as there

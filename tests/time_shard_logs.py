@@ -34,6 +34,8 @@ def build_on_local_cluster(logs: list[Path], out: Path) -> Any:
     distributed = pytest.importorskip("distributed", reason="the dask extra is not installed")
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+        # the scheduler's HTTP server on a free port, not on 8787 (taken: a warning)
+        scheduler_kwargs={"dashboard_address": ":0"},
         host="127.0.0.1",
     ) as cluster:
         return build_logs(logs, out, 1, scheduler=cluster.scheduler_address)
