@@ -61,12 +61,9 @@ def build_office_days(folder: Path, days: int = 3) -> Path:
     return out
 
 
-def figure_texts(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> list[str]:
-    """Run the command (it must succeed) and return the text of every artist of each figure it
-    saves as a PNG (titles, legend, caption), whitespace collapsed, in the order saved: what a
-    reader of the pictures sees written on them."""
-    from matplotlib.text import Text
-
+def kept_figures(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """The list every figure :func:`~aion_cli.pictures.render.save_png` saves from now on is
+    appended to (saved as before), for tests that read what a picture draws."""
     import aion_cli.pictures.render as render
 
     figures: list[Any] = []
@@ -77,6 +74,16 @@ def figure_texts(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> list[str
         return saved(fig, out, option)
 
     monkeypatch.setattr(render, "save_png", keep)
+    return figures
+
+
+def figure_texts(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> list[str]:
+    """Run the command (it must succeed) and return the text of every artist of each figure it
+    saves as a PNG (titles, legend, caption), whitespace collapsed, in the order saved: what a
+    reader of the pictures sees written on them."""
+    from matplotlib.text import Text
+
+    figures = kept_figures(monkeypatch)
     result = run(*args)
     assert result.exit_code == 0, result.stderr
     return [" ".join(" ".join(t.get_text() for t in f.findobj(Text)).split()) for f in figures]

@@ -13,7 +13,14 @@ from aion_cli.errors import InputError
 from aion_cli.formats.scene_colours import PATH_GREEN
 from aion_cli.pictures.plan import DISTANCE_ORANGE, TEMPORAL_GREEN
 from aion_cli.pictures.png_mark import PNG_MAGIC
-from tests.cli.conftest import Office, assert_one_line_error, run, run_json, run_process
+from tests.cli.conftest import (
+    Office,
+    assert_one_line_error,
+    kept_figures,
+    run,
+    run_json,
+    run_process,
+)
 from tests.pictures.pixels import count_near, panel_count, read_png
 
 AT = "2026-11-23 08:30"
@@ -274,14 +281,7 @@ def _axis_labels(loaded: Any, out: Path, monkeypatch: pytest.MonkeyPatch) -> set
     from aion_cli.api_time import to_ns
     from aion_cli.pictures import render
 
-    figures: list[Any] = []
-    save = render.save_png
-
-    def keep(fig: Any, path: Path, option: str = "-o") -> Path:
-        figures.append(fig)
-        return save(fig, path, option)
-
-    monkeypatch.setattr(render, "save_png", keep)
+    figures = kept_figures(monkeypatch)
     render.render_map_png(loaded, to_ns(AT), None, out)
     (fig,) = figures
     return {(ax.get_xlabel(), ax.get_ylabel()) for ax in fig.axes if ax.get_title()}
