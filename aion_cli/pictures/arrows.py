@@ -32,6 +32,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.descriptors import bin_of
 from aion_cli.formats.scene_colours import (
+    busy_fraction,
     colour_key,
     display_flow_scale,
     has_no_flow,
@@ -130,6 +131,12 @@ class ArrowField:
         if self.block is None:
             return min(ARROW_CELLS * cell_size, _reach(self.spacing, cell_size))
         return max(ARROW_CELLS * cell_size, BLOCK_ARROW * self.block)
+
+    def lengths(self, flow_scale: float, cell_size: float) -> F64:
+        """Each arrow's drawn length (m) at ``flow_scale`` (the flow drawn at full length):
+        :meth:`full_length` times ``formats.scene_colours.busy_fraction`` (0: not drawn)."""
+        busy: F64 = busy_fraction(self.flow, flow_scale)
+        return self.full_length(cell_size) * busy
 
     def length_note(self, cell_size: float) -> str:
         """The legend's line on the arrows' length when their spacing shortened them ("" when

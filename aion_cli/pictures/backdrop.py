@@ -56,6 +56,8 @@ class Extent:
     y1: float
     left_out: int = 0
     left_out_share: float = 0.0
+    pad: float = 0.0
+    """The margin (m) it leaves around what it shows (:func:`.view.scene_extent`)."""
 
     @property
     def aspect(self) -> float:

@@ -26,6 +26,8 @@ What is drawn, back to front:
   nodes with flow and no heading, which no arrow carries);
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
+A key draws the arrow of a stated flow in a panel's emptiest corner, one per figure
+(:mod:`.arrow_key`); the window's margin is as long as the longest arrow (:mod:`.view`).
 A colour bar labelled "direction entropy" (its ends named: one way, every way) shows the
 same blue-to-red scale (0..1). Several scenes (a series of times) become small multiples
 sharing axes, flow scale and colour bar.
@@ -58,6 +60,7 @@ from aion_cli.formats.scene_colours import (
     display_flow_scale,
     flow_colors,
 )
+from aion_cli.pictures.arrow_key import draw_arrow_key, drawn_points
 from aion_cli.pictures.arrows import (
     ARROW_CELLS,
     ArrowField,
@@ -183,7 +186,9 @@ def draw_topdown(
     from aion_cli.pictures.ticks import FittingLocator
 
     scale = flow_scale if flow_scale is not None and flow_scale > 0 else arrow_scale([scene]).flow
-    box = extent or scene_extent([scene], paths)
+    field = arrows if arrows is not None else spaced([arrow_field(scene)])[0]
+    drawn = field.lengths(scale, scene.cell_size)
+    box = extent or scene_extent([scene], paths, float(drawn.max(initial=0.0)))
     if footprint is None:
         footprint = mesh_footprint(
             scene, box, round(ax.get_window_extent().width), graph, float(ax.figure.dpi)
@@ -199,7 +204,6 @@ def draw_topdown(
                 zorder=2,
             )
         )
-    field = arrows if arrows is not None else spaced([arrow_field(scene)])[0]
     # the arrows stand on squares and dots of their own colours: under merged arrows the
     # cells' squares are faint and the nodes' dots left out (drawn solid, dots overlapping
     # where arrows merge, they are a carpet that hides the arrows); a cell with flow is pale
@@ -228,11 +232,10 @@ def draw_topdown(
         ax.scatter(*scene.nodes_xyz[has, :2].T, s=dot_size, c=colors, linewidths=0, zorder=5)
     # arrows for nodes and unbound cells alike (a map of cells only shows its directions too),
     # merged over blocks where the picture cannot resolve one per entry (.arrows)
-    busy = busy_fraction(field.flow, scale)
-    arrow = busy > 0
+    arrow = drawn > 0
     if arrow.any():
         colors = flow_colors(field.flow[arrow], field.entropy[arrow])
-        length = field.full_length(scene.cell_size) * busy[arrow]
+        length = drawn[arrow]
         angle = field.angle[arrow]
         ax.quiver(
             *field.xy[arrow].T,
@@ -333,10 +336,10 @@ def topdown_figure(
             f"the picture would have {n} panels, more than {MAX_PANELS}",
             hint="use a larger --step (or a shorter --from/--to)",
         )
-    extent = scene_extent(scenes, [p for ps in per_panel for p in ps])
+    every_path = [p for ps in per_panel for p in ps]
+    extent = scene_extent(scenes, every_path)
     rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
     block = arrow_block(extent, width, min(s.cell_size for s in scenes), height)
-    ink = graph_ink(scenes, extent, width, height, dpi)  # places a few pixels apart: lighter
     fields = spaced([arrow_field(s, block) for s in scenes])  # one length cap for all
     if block is None:
         arrows = arrow_scale(scenes)
@@ -345,6 +348,12 @@ def topdown_figure(
     if flow_scale is not None and flow_scale > 0:
         arrows = ArrowScale(flow_scale, max(flow_scale, arrows.largest))
     scale = arrows.flow
+    drawn = [f.lengths(scale, s.cell_size) for f, s in zip(fields, scenes, strict=True)]
+    longest = max(float(d.max(initial=0.0)) for d in drawn)
+    if longest > extent.pad:  # a margin as long as the longest arrow: none runs out of view
+        extent = scene_extent(scenes, every_path, longest)
+        rows, cols, width, height = page_grid(n, extent.aspect, max(len(found), 1))
+    ink = graph_ink(scenes, extent, width, height, dpi)  # places a few pixels apart: lighter
     fig = Figure(
         figsize=(cols * width + 1.4, rows * height + (1.2 if n == 1 else 1.0)),
         dpi=dpi,
@@ -393,6 +402,21 @@ def topdown_figure(
         if i % cols:
             ax.set_ylabel("")
         used.append(ax)
+    with_arrows = [i for i in range(len(used)) if (drawn[i] > 0).any()]
+    if with_arrows:  # one key per figure, in the emptiest corner of the last with arrows
+        last = with_arrows[-1]
+        tails = fields[last].xy
+        ends = tails + drawn[last][:, None] * np.column_stack(
+            [np.cos(fields[last].angle), np.sin(fields[last].angle)]
+        )
+        draw_arrow_key(
+            used[last],
+            scale,
+            fields[last].full_length(scenes[last].cell_size),
+            scenes[last].window_s,
+            drawn_points(scenes[last], tails, ends, per_panel[last]),
+            (width, height),
+        )
     # one legend for every panel's paths and markers (a goal on an upper level is drawn on
     # that level's panel only), in its row over the panels
     legend: dict[str, Any] = {}

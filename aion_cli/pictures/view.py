@@ -1,6 +1,7 @@
 """The window of a top-down picture: every place, node, mesh vertex and path of its scenes,
 and their hash cells but the outlying ones (:func:`.backdrop.outlying_cells`), with a margin
-for the arrows (moved from :mod:`.topdown`, which re-exports :func:`scene_extent`)."""
+as long as the longest arrow drawn, at least :data:`PAD_SHARE` of the span (moved from
+:mod:`.topdown`, which re-exports :func:`scene_extent`)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from aion_cli.pictures.arrows import ARROW_CELLS
 from aion_cli.pictures.backdrop import Extent, outlying_cells
 from aion_cli.scene import Scene
 
@@ -19,13 +19,22 @@ if TYPE_CHECKING:
 
 F64 = npt.NDArray[np.float64]
 
+PAD_SHARE = 0.04
+"""The least margin around a map, a share of its longer span (a map without arrows, or with
+arrows shorter than that, is framed by it)."""
 
-def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Extent:
+
+def scene_extent(
+    scenes: Sequence[Scene], paths: Sequence[PathLine] = (), margin: float = 0.0
+) -> Extent:
     """The window holding every place, node, mesh vertex and path of ``scenes`` and their hash
     cells but outliers (:func:`.backdrop.outlying_cells`: a few stray cells far from all of
     those, which the extent counts as left out, with their share of all the flow, nodes'
-    included), with a margin for the arrows (at least 1 m each way)."""
-    margin = max(ARROW_CELLS * s.cell_size for s in scenes) if scenes else 0.0
+    included), with ``margin`` metres each way for the arrows (the longest drawn, whose tail
+    is on a place, node or cell: then no arrow runs out of the window), at least
+    :data:`PAD_SHARE` of the longer span (the window is at least 2 m wide and high). A fixed
+    margin of four cells framed a dense map (the Lincoln corridor, its arrows capped at 1 m
+    by their spacing) with 2 m of white."""
     # the panels of a series show one map at several times: each cell, place and node is
     # taken once, with its flows over the panels summed, and each mesh once
     cell_xy, cell_flow = _summed_by_point(
@@ -47,7 +56,7 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     if len(xy) == 0:
         xy = np.zeros((1, 2))
     lo, hi = xy.min(axis=0), xy.max(axis=0)
-    pad = max(margin, 0.04 * float((hi - lo).max()))
+    pad = max(margin, PAD_SHARE * float((hi - lo).max()))
     centre = (lo + hi) / 2.0
     half_span = np.maximum((hi - lo) / 2.0 + pad, 1.0)
     x0, x1 = float(centre[0] - half_span[0]), float(centre[0] + half_span[0])
@@ -56,7 +65,7 @@ def scene_extent(scenes: Sequence[Scene], paths: Sequence[PathLine] = ()) -> Ext
     outside = ~((x >= x0) & (x <= x1) & (y >= y0) & (y <= y1))
     total = float(cell_flow.sum() + anchor_flow.sum())
     share = float(cell_flow[outside].sum()) / total if total > 0 else 0.0
-    return Extent(x0, x1, y0, y1, int(np.count_nonzero(outside)), share)
+    return Extent(x0, x1, y0, y1, int(np.count_nonzero(outside)), share, pad)
 
 
 def _summed_by_point(points: Sequence[F64], flows: Sequence[F64]) -> tuple[F64, F64]:
