@@ -6,7 +6,8 @@ A ``datetime`` holds microseconds, so a time becomes one by integer floor divisi
 0.24 µs and ``fromtimestamp`` rounds, so ``...59.999999999`` became the next second, minute or
 day; floor division cuts a time before 1970 towards the earlier microsecond too. The text forms:
 
-* :func:`utc_text`: ``2038-01-01 00:00:00 UTC``, as reports, notes and errors print a time;
+* :func:`utc_text`: ``2038-01-01 00:00:00 UTC``, as reports, notes and errors print a time,
+  and :func:`utc_ends`, the two ends of a span so, with decimals where they would read alike;
 * :func:`iso_utc`: ``2023-11-14T22:13:20.123456Z``, a log time to its microsecond
   (``aion info``'s ``start`` and ``end``, readers' warnings naming a message);
 * :func:`format_ns`: ``2026-11-23 08:30:00+01:00``, a time on a zone's clock with its offset
@@ -57,6 +58,26 @@ def utc_text(t_ns: int) -> str:
         return utc_of(t_ns).strftime("%Y-%m-%d %H:%M:%S UTC")
     except OverflowError:
         return f"{t_ns} ns"
+
+
+def utc_ends(start_ns: int, end_ns: int) -> tuple[str, str]:
+    """:func:`utc_text` of the two ends of a span; where they would read alike (a span of less
+    than a second), both with as many decimals as tell them apart (up to six: a microsecond),
+    cut as :func:`utc_of` cuts: ``2026-01-05 03:16:51.2 UTC`` to ``2026-01-05 03:16:51.5 UTC``."""
+    first, last = utc_text(start_ns), utc_text(end_ns)
+    if first != last or first.endswith(" ns"):
+        return first, last
+    for digits in range(1, 7):
+        step = 10 ** (9 - digits)
+        if start_ns // step != end_ns // step:
+            return _with_decimals(start_ns, digits), _with_decimals(end_ns, digits)
+    return first, last
+
+
+def _with_decimals(t_ns: int, digits: int) -> str:
+    """:func:`utc_text` with ``digits`` decimals of the second (cut, not rounded)."""
+    moment = utc_of(t_ns)
+    return f"{moment:%Y-%m-%d %H:%M:%S}.{moment.microsecond:06d}"[: 20 + digits] + " UTC"
 
 
 def iso_utc(t_ns: int) -> str:
@@ -111,7 +132,7 @@ def clock_labels(times_ns: Sequence[int], zone: Zone, form: str) -> list[str]:
 
 
 _UTC_FORMS = re.compile(
-    r"\b(\d{4}-\d{2}-\d{2}) (\d{2}:\d{2}:\d{2}) UTC\b"  # utc_text's
+    r"\b(\d{4}-\d{2}-\d{2}) (\d{2}:\d{2}:\d{2})(\.\d{1,6})? UTC\b"  # utc_text's, utc_ends'
     r"|\b(\d{4}-\d{2}-\d{2})T(\d{2}:\d{2}:\d{2})\.(\d{6})Z\b"  # iso_utc's
 )
 
@@ -120,6 +141,7 @@ def on_clock(text: str, zone: Zone) -> str:
     """``text`` (a warning, a note) with each time :func:`utc_text` or :func:`iso_utc` wrote
     in it read again on ``zone``'s clock with its offset, at the precision it had:
     ``2012-10-24 00:20:20 UTC`` -> ``2012-10-24 09:20:20+09:00``,
+    ``2012-10-24 00:20:20.25 UTC`` (:func:`utc_ends`) -> ``2012-10-24 09:20:20.25+09:00``,
     ``2012-10-24T00:20:20.500000Z`` -> ``2012-10-24T09:20:20.500000+09:00`` (Asia/Tokyo).
     Messages are written in UTC wherever they arise (a reader knows no zone); a command that
     shows every time on one zone's clock passes its messages through this. Unchanged in UTC."""
@@ -127,11 +149,12 @@ def on_clock(text: str, zone: Zone) -> str:
         return text
 
     def local(match: re.Match[str]) -> str:
-        day, clock, day_us, clock_us, micros = match.groups()
+        day, clock, decimals, day_us, clock_us, micros = match.groups()
         try:
             if day is not None:
                 moment = datetime.fromisoformat(f"{day}T{clock}+00:00")
-                return moment.astimezone(zone.tz).isoformat(sep=" ", timespec="seconds")
+                shown = moment.astimezone(zone.tz).isoformat(sep=" ", timespec="seconds")
+                return shown[:19] + (decimals or "") + shown[19:]  # the decimals before the offset
             moment = datetime.fromisoformat(f"{day_us}T{clock_us}.{micros}+00:00")
             return moment.astimezone(zone.tz).isoformat(timespec="microseconds")
         except (ValueError, OverflowError):  # no date (2023-02-30), or the zone's is beyond 9999

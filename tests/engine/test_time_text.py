@@ -12,6 +12,7 @@ from aion_cli.engine.time_text import (
     from_ns,
     iso_utc,
     on_clock,
+    utc_ends,
     utc_of,
     utc_text,
 )
@@ -59,6 +60,39 @@ def test_on_clock_reads_both_utc_forms_again_on_a_zone_clock() -> None:
         "2012-10-24 09:20:20+09:00; the range is 1900-01-01 .. 2261-01-01 UTC"
     )
     assert on_clock(text, Zone(UTC, "UTC")) == text
+
+
+def test_the_ends_of_a_span_within_a_second_read_apart() -> None:
+    """Both ends of a span cut to the second read alike ("00:20:20 to 00:20:20") when it lies
+    within one second: as many decimals as tell them apart, cut as utc_text cuts."""
+    assert utc_ends(T + 200_000_000, T + 500_000_000) == (
+        "2012-10-24 00:20:20.2 UTC",
+        "2012-10-24 00:20:20.5 UTC",
+    )
+    assert utc_ends(T + 123_456_789, T + 129_999_999) == (
+        "2012-10-24 00:20:20.123 UTC",
+        "2012-10-24 00:20:20.129 UTC",
+    )
+    assert utc_ends(T + 1_000, T + 2_999) == (
+        "2012-10-24 00:20:20.000001 UTC",
+        "2012-10-24 00:20:20.000002 UTC",
+    )
+    # ends in other seconds, however close, keep utc_text's form
+    assert utc_ends(T - 1, T) == ("2012-10-24 00:20:19 UTC", "2012-10-24 00:20:20 UTC")
+    assert utc_ends(T, T + 3 * 60 * S) == (utc_text(T), "2012-10-24 00:23:20 UTC")
+    # one instant, or ends no microsecond tells apart, or beyond datetime: as utc_text
+    assert utc_ends(T, T) == (utc_text(T), utc_text(T))
+    assert utc_ends(T + 1, T + 999) == (utc_text(T), utc_text(T))
+    assert utc_ends(10**30, 10**30 + 1) == (f"{10**30} ns", f"{10**30 + 1} ns")
+
+
+def test_on_clock_keeps_the_decimals_of_a_spans_ends() -> None:
+    start, end = utc_ends(T + 250_000_000, T + 290_000_000)
+    assert on_clock(f"from {start} to {end}", TOKYO) == (
+        "from 2012-10-24 09:20:20.25+09:00 to 2012-10-24 09:20:20.29+09:00"
+    )
+    monrovia = Zone(ZoneInfo("Africa/Monrovia"), "Africa/Monrovia")  # -00:44:30 until 1972
+    assert on_clock("1970-01-01 00:00:00.5 UTC", monrovia) == "1969-12-31 23:15:30.5-00:44:30"
 
 
 def test_on_clock_gives_each_side_of_a_clock_change_its_offset() -> None:
