@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from aion_cli.engine.time_text import utc_text
+from aion_cli.engine.time_text import utc_ends, utc_text
 from aion_cli.engine.types import I64
 from aion_cli.errors import InputError, path_word
 
@@ -140,9 +140,10 @@ def overlap_warnings(
         if not same:
             continue
         shared = span_text((o.end_ns - o.start_ns) / 1e9)  # as info gives spans: "0.3 s"
+        start, end = utc_ends(o.start_ns, o.end_ns)  # "03:16:51.2 to 03:16:51.5" within a second
         out.append(
             f"{o.first.path.name} and {o.second.path.name} both hold {', '.join(o.topics)} "
-            f"from {utc_text(o.start_ns)} to {utc_text(o.end_ns)} ({shared}), with the same people "
+            f"from {start} to {end} ({shared}), with the same people "
             "at the same times and places: the people both logs saw count twice; if one "
             "repeats the other (a copy, an excerpt, a merged file), build from one of them"
         )

@@ -7,10 +7,11 @@ people. A log repeated in another container, or inside a merged file, still warn
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
-from tests.robustness.conftest import T0, Message, S, build_json, person, write_log
+from tests.robustness.conftest import T0, Message, S, build_json, person, run, walk, write_log
 
 MINUTES = 15
 
@@ -60,3 +61,21 @@ def test_a_log_repeated_in_another_container_or_a_merged_file_warns(tmp_path: Pa
     for pair in ((log, merged), (merged, log), (log, again_log)):
         report = build_json(*pair, "-o", tmp_path / "merged.aion", "--workers", "1")
         assert len(_twice(report)) == 1
+
+
+def test_logs_sharing_less_than_a_second_give_ends_that_read_apart(tmp_path: Path) -> None:
+    """Two logs sharing 0.3 s were said to hold the same people "from 08:00:00 UTC to
+    08:00:00 UTC (0.3 s)": both ends cut to the second. Now with the decimals that tell them
+    apart; logs sharing minutes keep the times to the second."""
+    short = [person(T0 + k * S // 10, (0.1 * k, 0.0, 0.0)) for k in range(2, 6)]  # 0.2..0.5 s
+    pair = write_log(tmp_path / "run.mcap", short), write_log(tmp_path / "run.bag", short, "bag")
+    info = run("info", *pair, "--format", "json")
+    assert info.exit_code == 0, info.stderr
+    (warning,) = _twice(json.loads(info.stdout))
+    assert "from 2026-11-23 08:00:00.2 UTC to 2026-11-23 08:00:00.5 UTC (0.3 s)" in warning
+    report = build_json(*pair, "-o", tmp_path / "short.aion", "--workers", "1")
+    assert _twice(report) == [warning]  # build says as info does
+    long = walk(3 * 60 + 1)  # 08:00:00 .. 08:03:00
+    pair = write_log(tmp_path / "a.mcap", long), write_log(tmp_path / "a.bag", long, "bag")
+    (warning,) = _twice(json.loads(run("info", *pair, "--format", "json").stdout))
+    assert "from 2026-11-23 08:00:00 UTC to 2026-11-23 08:03:00 UTC (3m00s)" in warning
