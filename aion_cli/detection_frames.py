@@ -123,7 +123,7 @@ def clock_mismatch(tf: TfBuffer, target: str, source: str, t_ns: int) -> str | N
     :data:`CLOCK_SLACK_NS` (TF and the detections on different clocks: a simulation's, a
     machine's); None when it lies within them (a gap, localisation lost) or the chain is
     static."""
-    from aion_cli.engine.time_text import utc_text
+    from aion_cli.engine.time_text import utc_ends, utc_text
 
     span = tf.chain_range(target, source)
     if span is None:
@@ -131,8 +131,9 @@ def clock_mismatch(tf: TfBuffer, target: str, source: str, t_ns: int) -> str | N
     lo, hi = span
     if lo - CLOCK_SLACK_NS <= t_ns <= hi + CLOCK_SLACK_NS:
         return None
+    first, last = utc_ends(lo, hi)
     return (
         f"the first detection in {source!r} without a transform is stamped {utc_text(t_ns)}, "
-        f"but TF has {target}->{source} only from {utc_text(lo)} to {utc_text(hi)}: TF and the "
+        f"but TF has {target}->{source} only from {first} to {last}: TF and the "
         "detections are stamped on different clocks (a simulation's, another machine's)"
     )

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.mapper import TIME_RANGE_TEXT
-from aion_cli.engine.time_text import utc_text
+from aion_cli.engine.time_text import utc_ends, utc_text
 from aion_cli.engine.types import I64
 
 
@@ -43,7 +43,8 @@ class SpanCheck:
     def warnings(self) -> list[str]:
         """One line naming every stray (topic, count, first time) and the span shown, and one
         naming every log time outside the range a build takes."""
-        shown = f"({utc_text(self.start_ns)} .. {utc_text(self.end_ns)})"
+        start, end = utc_ends(self.start_ns, self.end_ns)  # with decimals within a second
+        shown = f"({start} .. {end})"
         out = []
         if self.out_of_range:
             named = "; ".join(

@@ -16,7 +16,7 @@ import pytest
 from aion_cli.engine.mapper import MAX_TIME_NS
 from tests.cli.conftest import run_json
 from tests.robustness.conftest import T0 as T0_WALK
-from tests.robustness.conftest import build_json, walk, write_log
+from tests.robustness.conftest import build_json, person, walk, write_log
 from tests.robustness.mcap_edit import STRING_CDR, copy_with, payload_of
 from tests.shared_data import real
 
@@ -172,3 +172,13 @@ def test_a_log_whose_every_time_lies_past_2261_says_so(tmp_path: Path) -> None:
     (warning,) = [w for w in info["warnings"] if "2261-01-01" in w]
     assert warning.startswith("every log time lies outside 1900-01-01 .. 2261-01-01 UTC"), warning
     assert "20 on /tracks (first: 2264-09-14 21:20:00 UTC)" in warning, warning
+
+
+def test_a_span_shown_within_one_second_gives_ends_that_read_apart(tmp_path: Path) -> None:
+    """20 messages 0.04 s apart and a stray 100 days on: the span shown read
+    "(08:00:00 UTC .. 08:00:00 UTC)"; now with the decimals that tell its ends apart."""
+    messages = [person(T0_WALK + k * S // 25, (2.1, 0.1, 0.0)) for k in range(20)]
+    messages.append(person(T0_WALK + DAYS_100, (2.1, 0.1, 0.0)))
+    info = run_json("info", write_log(tmp_path / "short.mcap", messages), "--format", "json")
+    (stray,) = [w for w in info["warnings"] if "stray log time" in w]
+    assert "(2026-11-23 08:00:00.0 UTC .. 2026-11-23 08:00:00.7 UTC)" in stray

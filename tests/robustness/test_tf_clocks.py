@@ -64,3 +64,17 @@ def test_tf_partly_off_names_its_clock_in_the_loss_warning(tmp_path: Path) -> No
     report = build_json(robot_log(tmp_path / "ok.mcap", T0), "-o", tmp_path / "ok.aion")
     assert report["detections"]["used"] >= N - 5  # the last seconds after TF's last sample
     assert all(WHY not in w for w in report["warnings"])
+
+
+def test_tf_stamped_within_one_second_gives_ends_that_read_apart(tmp_path: Path) -> None:
+    """Two transforms 0.4 s apart an hour off: "only from 09:00:00 UTC to 09:00:00 UTC" read
+    as one instant; now with the decimals that tell the ends apart."""
+    messages = [person(T0 + k * S, (1.1, 0.1, 0.0), frame="base_link") for k in range(60)]
+    for k, late_ns in enumerate((0, 400_000_000)):
+        tf = robot_tf(T0 + k * S)
+        tf[2]["transforms"][0]["header"]["stamp"] = stamp(T0 + 3600 * S + late_ns)
+        messages.append(tf)
+    result = run("build", write_log(tmp_path / "tf.mcap", messages), "-o", tmp_path / "m.aion")
+    fails(result, "none of the 60 people detections")
+    shown = "2026-11-23 09:00:00.0 UTC to 2026-11-23 09:00:00.4 UTC"
+    assert f"TF has map->base_link only from {shown}: {WHY}" in result.stderr.split("hint: ", 1)[1]
