@@ -9,7 +9,8 @@ steps' parts live beside it, each with its own rules. Steps of :func:`build_map`
    (:func:`aion_cli.build_options.build_topics`, :func:`aion_cli.topics.select_topics`):
    detection topics with a supported adapter (all of them, or those named), the scene-graph
    topic(s) (``hydra_msgs/DsgUpdate``), ``/tf`` and ``/tf_static``;
-2. read TF first into a ``TfBuffer`` (and, for robots recording at once, a tree per log:
+2. (:mod:`aion_cli.build_reading`, whose methods :class:`_Build` inherits, as step 3's)
+   read TF first into a ``TfBuffer`` (and, for robots recording at once, a tree per log:
    :mod:`aion_cli.tf_trees`), and the log times of every topic the build uses (from
    the logs' indexes where they give exactly the stream's, else in the same pass;
    :mod:`aion_cli.tf_feed`, :mod:`formats.stream_times`); the time-sanity rules
@@ -48,35 +49,28 @@ With ``--workers`` several groups of logs are learnt at once and joined into the
 from __future__ import annotations
 
 import copy
-from itertools import takewhile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from aion_cli.build_observation import observe
 from aion_cli.build_options import (
     MAP_SUFFIX,
     BuildOptions,
     ShardStart,
     build_topics,
     check_not_an_input,
-    resolve_config,
 )
 from aion_cli.build_output import write_build
+from aion_cli.build_reading import ReadStep
 from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
-from aion_cli.build_stream import StreamStep
 from aion_cli.continued_map import check_part, frame_warning, load_continued
 from aion_cli.detection_counts import MapperTally
 from aion_cli.detection_feed import DetectionCounts, log_adapters
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.graph_arrays import file_graph_time
-from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.errors import InputError, StaleIndexError
-from aion_cli.formats.log_overlaps import topics_at_once
-from aion_cli.graph_feed import GraphFeed, graph_source
-from aion_cli.graph_owners import graph_streams_at_once
-from aion_cli.graph_schedule import GraphTimes
-from aion_cli.log_observed import NO_MARKS, marker_times, observed_fill, with_logs_observed
+from aion_cli.graph_feed import GraphFeed
+from aion_cli.log_observed import NO_MARKS, with_logs_observed
 from aion_cli.log_order import overlap_warnings
 from aion_cli.log_times import TopicTimes
 from aion_cli.log_twins import topic_twin_warnings
@@ -85,14 +79,6 @@ from aion_cli.mapquery import LoadedMap
 from aion_cli.provenance import DistinctLogs, distinct_logs
 from aion_cli.recording_twins import check_continued
 from aion_cli.stamp_warnings import sim_time_warning
-from aion_cli.tf_feed import (
-    check_tf,
-    check_times,
-    check_unusable,
-    read_tf_and_times,
-    with_static_tf,
-)
-from aion_cli.tf_trees import TfTrees, own_tf_buffers
 from aion_cli.topic_mappable import no_detection_topic
 from aion_cli.topics import TopicPlan
 
@@ -104,7 +90,7 @@ if TYPE_CHECKING:
 __all__ = ["MAP_SUFFIX", "BuildOptions", "build_map"]
 
 
-class _Build(StreamStep):
+class _Build(ReadStep):
     """One run of ``aion build`` (state shared by the phases).
 
     ``shard``: a part of a parallel build (:mod:`aion_cli.parallel_build`): the logs are
@@ -174,10 +160,6 @@ class _Build(StreamStep):
     def set_logs(self, logs: tuple[Path, ...]) -> None:
         """A part of a parallel build: the parent hashed and de-duplicated the logs."""
         self._logs = tuple(logs)
-
-    def config(self) -> ModelConfig:
-        """The model config (:func:`aion_cli.build_options.resolve_config`)."""
-        return resolve_config(self.opts, self.previous.config if self.previous else None)
 
     def run(self) -> BuildReport:
         """The build, holding the output map's lock from start to end."""
@@ -340,45 +322,6 @@ class _Build(StreamStep):
             return Mapper(config, start_shard(MapState.empty(config)))
         return Mapper(config, self.previous.state if self.previous else None)
 
-    def _read_times(self, logset: Any, plan: TopicPlan) -> TfTrees:
-        """TF into its trees (:mod:`aion_cli.tf_trees`) and the log times of every topic the
-        build uses, then the time-sanity rules (:mod:`aion_cli.log_times`) over them: their
-        warnings go to the report, and :attr:`_times` filters the later reads. The build's
-        time span comes from the detection, scene-graph and (dynamic) TF topics only:
-        unrelated topics and container summaries have no say."""
-        graphs = plan.names("graph") if self.opts.graph_file is None else set()
-        timed = plan.names("detections") | graphs
-        thinned = graphs if self.opts.graph_period_ns > 0 else set()
-        own = own_tf_buffers(logset, plan)  # robots recording at once: a tree each
-        tf, times, stats = read_tf_and_times(
-            logset, plan, timed, self.progress, thinned, use_index=self._use_index, own=own
-        )
-        tf_topics = plan.names("tf") if plan.tf else set()
-        self._times = self._whole_times = check_times(
-            times, plan, timed, self.report, list(logset.recording_times().values())
-        )
-        self._marks = marker_times(self.opts.observed_marked, times, self._whole_times.strays)
-        self._detection_windows = times.windows(
-            plan.names("detections"), window_ns(self.config().window_s)
-        )
-        if self.time_part is not None:
-            self._times = self._whole_times.limited(*self.time_part)
-            self._part_total = times.count_inside(timed, *self.time_part)
-        if isinstance(times, GraphTimes):
-            delta = window_ns(self.config().window_s)
-            self.graphs.schedule(times, self._times.strays, delta, self.time_part)
-            start = self._times.start_ns
-            if self.deferred and start is not None:  # a shard after others: its own poses
-                self.graphs.agents_since(start // delta * delta)
-        check_tf(stats, tf_topics, self.report)
-        if self.at.first_part:  # (every part reads the whole logs' TF)
-            check_unusable(tf, self.report)
-        else:  # the whole logs' counts: the first part reports them
-            self.report.time_dropped = {}
-            self.report.tf_undecodable = 0
-        # a shard: all logs' /tf_static, in every tree
-        return TfTrees(with_static_tf(tf, self.at.static_tf), own).with_static()
-
     def _distinct_logs(self) -> DistinctLogs:
         """Which logs are distinct (:func:`aion_cli.provenance.distinct_logs`): they become
         :attr:`logs`; their hashes may still be under way (:meth:`_inputs` waits)."""
@@ -397,56 +340,6 @@ class _Build(StreamStep):
         previous = self.previous_manifest
         old = previous.inputs if previous is not None else ()
         return old + tuple(InputLog.from_dict(entry) for entry in new)
-
-    def _observation(self, mapper: Mapper, tf: TfTrees, plan: TopicPlan, logset: Any) -> None:
-        """Which windows the map observed (:func:`aion_cli.build_observation.observe`); the first
-        scene graph's agent layer is asked for only without a robot trajectory."""
-
-        def graph_agents(between: tuple[int, int] | None) -> bool:
-            if not plan.graph or self.opts.graph_file is not None:
-                return False
-            # the first graph of the logs, also in a time shard (every part observes alike);
-            # with ``between``, the first in that span of log time (a later group of logs)
-            messages = self._whole_times.filter(logset.messages(plan.names("graph"), between))
-            if between is None:
-                return self.graphs.first_has_agents(logset, iter(messages))
-            lo, hi = between
-            inside = (m for m in messages if m.log_time_ns >= lo)
-            return self.graphs.has_agents(logset, takewhile(lambda m: m.log_time_ns < hi, inside))
-
-        frames = (self.opts.map_frame, self.opts.base_frame)
-        # the logs holding /tf: a short one's whole trajectory is its own, not strays
-        dynamic = [t for t in plan.names("tf") if not t.endswith("_static")] if plan.tf else []
-        observe(
-            mapper, tf.shared, frames, graph_agents, logset, self._times, self.report,
-            self.opts.observed, self._detection_windows,
-            observed_fill(self.opts, self.previous_manifest, mapper.state.window_ns),
-            self._marks,
-            self._whole_times,
-            self.at.opens_map and self.start is None,  # (learnt onto a map: it has started)
-            self.shard and not self.at.opens_map and self.start is None,
-            tuple(logset.recording_times(dynamic).values()),
-            tf.poses(*frames),
-        )
-
-    def _fixed_graph(
-        self, logset: Any, plan: TopicPlan, tf: TfTrees, config: ModelConfig
-    ) -> GraphSnapshot | None:
-        """The graph from ``--graph FILE`` or ``--derive-graph`` (added once, at the start;
-        :func:`aion_cli.graph_feed.graph_source`)."""
-        start = self._times.start_ns
-        if start is None:
-            start = int(logset.start_ns)
-        return graph_source(
-            self.report, plan, self.opts,
-            continued_graph=self.previous is not None and self.previous.graph is not None,
-            start=start,
-            derive=lambda: self._derive(logset, plan, tf, config, start),
-            graph_topics_at_once=lambda: topics_at_once(logset, plan.names("graph")),
-            graph_streams_at_once=lambda: graph_streams_at_once(
-                logset, plan.names("graph"), self.graphs.peek, config.bind_radius
-            ),
-        )
 
     def _span(self) -> int | None:
         """The map's time span: the first and last message the build used (detections, scene
