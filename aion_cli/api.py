@@ -49,6 +49,7 @@ from aion_cli.api_checks import (
     TimeLike,
     ZoneLike,
 )
+from aion_cli.api_keywords import methods_checked
 from aion_cli.api_make import PathLike, as_path, build, compact, merge
 from aion_cli.api_results import MEMORY, Files, Plan, Table
 from aion_cli.api_time import query_time, query_times, query_zone, to_ns
@@ -81,7 +82,7 @@ def read_map(path: Path, report: Made) -> Map[Made]:
     return Map(MapSource.of_file(path), path, report)
 
 
-@check.methods_checked
+@methods_checked
 class Map(Generic[Report]):
     """A 4D scene-graph map: loaded from a ``.aion`` file, built from logs, or made from an
     in-memory ``MapState`` (:meth:`from_state`). Typed by what made it, its :attr:`report`:

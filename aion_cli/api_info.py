@@ -11,7 +11,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from aion_cli.api_checks import ZoneLike, keywords_checked
+from aion_cli.api_checks import ZoneLike
+from aion_cli.api_keywords import keywords_checked
 from aion_cli.api_make import PathLike
 from aion_cli.errors import InputError
 

@@ -18,9 +18,8 @@ from aion_cli.api_checks import (
     SpansLike,
     StepLike,
     ZoneLike,
-    keywords_checked,
-    refuse_unknown_keywords,
 )
+from aion_cli.api_keywords import keywords_checked, refuse_unknown_keywords
 from aion_cli.errors import InputError
 
 if TYPE_CHECKING:

@@ -8,7 +8,8 @@ from __future__ import annotations
 from datetime import datetime, tzinfo
 from typing import Any
 
-from aion_cli.api_checks import TimeLike, keywords_checked, time_value, zone_name
+from aion_cli.api_checks import TimeLike, time_value, zone_name
+from aion_cli.api_keywords import keywords_checked
 from aion_cli.engine.time_text import Zone
 from aion_cli.errors import InputError
 
