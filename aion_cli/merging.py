@@ -358,7 +358,8 @@ def _join_part(
     """A part map (``aion build --part``) joined onto the maps before it: its held days are
     scored against all of their history, as one build of every log would
     (:func:`aion_cli.engine.shards.join_shard`); a note when the join cannot be exact."""
-    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
+    from aion_cli.engine.join_blockers import join_blocker
+    from aion_cli.engine.shards import join_shard, overlap_blocker
 
     overlap = overlap_blocker(acc, part)
     if overlap is not None:

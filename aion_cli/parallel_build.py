@@ -12,7 +12,7 @@ order (:func:`aion_cli.shard_fold.fold`): each is joined onto the map of every s
 which scores its held days against all of that history, so the result equals the sequential
 build.
 
-Where a shard cannot be joined exactly (:func:`aion_cli.engine.shards.join_blocker`: its
+Where a shard cannot be joined exactly (:func:`aion_cli.engine.join_blockers.join_blocker`: its
 ownership changed after one of its days closed, it has no scene graph of its own while the
 map has one, ...), the fold rebuilds that shard's logs in sequence onto the map so far (a
 note says which and why): the result is exact either way, only slower. Builds that need all

@@ -99,7 +99,7 @@ class Folded:
     # the scene-graph version and layer pinned so far (aion_cli.graph_feed.GraphFeed.pins)
     pins: tuple[str | None, str | None] = (None, None)
     # per shard learnt again in sequence because its scene graph bound cells, or moved
-    # places, otherwise than one pass: why (engine.shards.JoinBlock.cause)
+    # places, otherwise than one pass: why (engine.join_blockers.JoinBlock.cause)
     graph_causes: list[str] = field(default_factory=list)
 
     @property
@@ -176,7 +176,8 @@ def fold(
     workers then)."""
     from aion_cli.detection_feed import yaw_rule_blocker
     from aion_cli.engine.graph_arrays import file_graph_time
-    from aion_cli.engine.shards import join_blocker, join_shard, overlap_blocker
+    from aion_cli.engine.join_blockers import join_blocker
+    from aion_cli.engine.shards import join_shard, overlap_blocker
     from aion_cli.graph_notes import pins_blocker
 
     state = result.state

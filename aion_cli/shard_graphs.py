@@ -110,7 +110,7 @@ def graph_breaks(
     one moved farther than ``tolerance`` (another Hydra session, whose node ids are its own;
     a graph rebuilt). One pass releases those places at that graph, and a shard built apart
     from the earlier ones cannot know them, so its join would be refused and its logs learnt
-    again in sequence (``engine.shards.join_blocker``); the planner keeps such groups
+    again in sequence (``engine.join_blockers.join_blocker``); the planner keeps such groups
     together instead. False where it cannot be told (no scene graph, no index, a graph that
     does not decode): the join decides then, as before.
 

@@ -223,7 +223,7 @@ def _add_nested(into: dict[str, Any], more: dict[str, Any]) -> None:
 def built_twice_note(causes: list[str], shards: int) -> str:
     """The note on the shards a parallel build learnt again in sequence because their scene
     graph bound cells, or moved places, otherwise than one pass would have: how many, and
-    why (each ``causes`` item one shard's :attr:`~aion_cli.engine.shards.JoinBlock.cause`,
+    why (each ``causes`` item one shard's :attr:`~aion_cli.engine.join_blockers.JoinBlock.cause`,
     counted when they differ)."""
     counts: dict[str, int] = {}
     for cause in causes:

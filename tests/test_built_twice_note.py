@@ -13,8 +13,9 @@ from functools import partial
 import numpy as np
 import pytest
 
+from aion_cli.engine.join_blockers import join_blocker
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.shards import join_blocker, start_shard
+from aion_cli.engine.shards import start_shard
 from aion_cli.engine.state import MapState
 from aion_cli.shard_reports import built_twice_note
 from tests.engine.engine_builders import graph

@@ -21,9 +21,10 @@ import numpy as np
 
 from aion_cli.engine.compare import differences
 from aion_cli.engine.entries import CELL, FREE
+from aion_cli.engine.join_blockers import join_blocker
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.merge import merge_maps
-from aion_cli.engine.shards import join_blocker, join_shard, start_shard
+from aion_cli.engine.shards import join_shard, start_shard
 from aion_cli.engine.spatial_hash import keys_for_points
 from aion_cli.engine.state import MapState
 from tests.engine.engine_builders import (

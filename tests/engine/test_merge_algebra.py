@@ -12,10 +12,11 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.compare import differences
+from aion_cli.engine.join_blockers import join_blocker
 from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.merge import merge_maps
 from aion_cli.engine.query import historical_table
-from aion_cli.engine.shards import join_blocker, join_shard, start_shard
+from aion_cli.engine.shards import join_shard, start_shard
 from aion_cli.engine.state import MapState
 from tests.engine.engine_builders import graph
 from tests.engine.state_logs import (

@@ -10,8 +10,9 @@ from functools import partial
 import numpy as np
 import pytest
 
+from aion_cli.engine.join_blockers import join_blocker
 from aion_cli.engine.mapper import Mapper
-from aion_cli.engine.shards import join_blocker, join_shard, start_shard
+from aion_cli.engine.shards import join_shard, start_shard
 from aion_cli.engine.state import MapState
 from tests.engine.engine_builders import check_invariants, detections, graph
 from tests.engine.state_logs import (
