@@ -3,7 +3,7 @@ convert --observed`` records beside the empty "still observing" messages it writ
 
 Without ``--observed`` a build counts the spans its logs record as if given by
 ``--observed`` (the spans of several logs together), and the empty marker messages at
-:func:`formats.tracks_log.observed_stamps` of those spans as no message: a window only
+:func:`formats.observed_marks.observed_stamps` of those spans as no message: a window only
 markers hold counts for the share the spans cover, as ``build --observed`` counts a window
 without a message, so converting with ``--observed`` and building equals converting without
 it and building with ``--observed``. ``--observed`` given replaces the logs' spans (their
@@ -90,14 +90,14 @@ def logs_observed(given: Spans, logs: Sequence[Path]) -> tuple[Spans, Spans, lis
 def marker_times(marked: Spans, times: TopicTimes, strays: dict[str, I64]) -> I64:
     """The log times of the messages that only mark the ``marked`` spans (sorted, a time once
     per message): the empty marker messages (each log's spans as it marked them:
-    :func:`formats.tracks_log.observed_stamps` of each alone, since two logs' touching spans
+    :func:`formats.observed_marks.observed_stamps` of each alone, since two logs' touching spans
     are marked apart, and a stamp two logs' overlapping spans share is two messages), and
     the scene graphs of ``times`` (``GraphTimes``: the build reads its logs' graphs;
     ``strays`` left out, as the build drops them) that share a marker's stamp: the one ``aion
     convert --graph`` writes in a log of spans without detections, at its first marker, is
     no detection message either (a graph convert writes with a detection message shares the
     detection's stamp, which then stays)."""
-    from aion_cli.formats.tracks_log import observed_stamps
+    from aion_cli.formats.observed_marks import observed_stamps
     from aion_cli.graph_schedule import GraphTimes
 
     if not marked:

@@ -1,8 +1,8 @@
 """Track batches -> robot-style logs (MCAP or bag) that ``aion build`` reads like any other.
 
 :func:`tracks_to_log` turns a batch (plus optionally a Hydra graph and the observed spans,
-written as empty detection messages at :func:`observed_stamps`) into a log of spencer
-``TrackedPersons`` (serialized with numpy, :func:`tracked_person_records` /
+written as empty detection messages at :func:`formats.observed_marks.observed_stamps`) into a
+log of spencer ``TrackedPersons`` (serialized with numpy, :func:`tracked_person_records` /
 :func:`tracked_persons_many`: a chunk's messages at once) or ``PoseArray`` messages;
 :func:`stream_tracks_to_log` does the same for a file read
 :data:`formats.track_csv.CHUNK_ROWS` lines at a time. Reading the files is
@@ -21,6 +21,7 @@ import numpy as np
 
 from aion_cli.engine.types import I64, DetectionBatch
 from aion_cli.errors import InputError
+from aion_cli.formats.observed_marks import _declared_metadata, _lone_graph_ns, observed_stamps
 from aion_cli.formats.track_csv import CHUNK_ROWS, track_chunks
 from aion_cli.formats.track_messages import (
     pose_records,
@@ -77,44 +78,6 @@ class TracksLogSummary:
     topic_times: I64 = field(default_factory=lambda: np.zeros(0, np.int64))
 
 
-#: interval of the empty detection messages over an observed span: far below any sane
-#: observation window (aion's default is 600 s), so every window the span touches holds one
-OBSERVED_INTERVAL_NS = 30 * 1_000_000_000
-
-
-MOST_OBSERVED_MARKS = 10_000_000
-"""Empty marker messages one log takes for ``--observed`` spans (at one every 30 s, about
-9.5 years): beyond, a span is a typo (a 1970 start), not a recording."""
-
-
-def observed_stamps(
-    spans: Iterable[tuple[int, int]], interval_ns: int = OBSERVED_INTERVAL_NS
-) -> I64:
-    """Stamps of the empty detection messages that mark ``spans`` (half-open ``[start, end)``
-    ns, merged first) as observed: ``start, start + interval, ...`` while before ``end``, and
-    the span's last instant ``end - 1 ns``, so a window that overlaps a span only briefly at
-    either end still gets a message. Sorted, unique."""
-    if not interval_ns > 0:
-        raise InputError(f"the observed-message interval must be > 0 ns, got {interval_ns}")
-    merged = merge_spans(spans)
-    total = sum(b - a for a, b in merged)
-    if total // interval_ns > MOST_OBSERVED_MARKS:
-        years = total / (365.25 * 86400e9)
-        raise InputError(
-            f"the observed spans cover {years:,.1f} years: more than one log's empty marker "
-            f"messages hold (at most {MOST_OBSERVED_MARKS:,}, one every "
-            f"{interval_ns / 1e9:g} s: about {MOST_OBSERVED_MARKS * interval_ns / 3.1557e16:.1f}"
-            " years)",
-            hint="give the spans the sensor was really recording, e.g. --observed "
-            '"2026-01-06 08:00..2026-01-06 18:00"',
-        )
-    parts = [
-        np.append(np.arange(a, b, interval_ns, dtype=np.int64), np.int64(b - 1))
-        for a, b in merged
-    ]
-    return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
-
-
 def _group_keys(t_ns: I64, group_ns: int, t0: int) -> I64:
     """The message each time-sorted row goes into: one message per distinct time, or per
     ``group_ns`` bin counted from ``t0`` (the first detection) when ``group_ns > 0``."""
@@ -166,7 +129,8 @@ def tracks_to_log(
     recording. A fixed sensor's log counts as observed only in the windows in which it holds
     a message, so over these spans empty messages (same topic and type, no people) are
     written as a running tracker publishes them, at :func:`observed_stamps` (every
-    :data:`OBSERVED_INTERVAL_NS`), merged in time order with the detection messages.
+    :data:`formats.observed_marks.OBSERVED_INTERVAL_NS`), merged in time order with the
+    detection messages.
     Without spans only the detections are written: windows without one count as unobserved.
     The batch may be empty when spans are given (the sensor ran, nobody came).
 
@@ -448,29 +412,6 @@ def _write_tracks(
         far_example=far.example,
         topic_times=np.frombuffer(out.topic_times, dtype=np.int64).copy(),
     )
-
-
-def _lone_graph_ns(spans: list[tuple[int, int]]) -> int | None:
-    """Where a log without detections takes its scene graph: its first marker, the first
-    span's start, which is the log's own start. A build cuts the log's first window at its
-    start as the span does, so the graph adds no observed time there, whatever the window;
-    inside the log a window holding a message counts whole, and the middle of a span short
-    of two windows (it went there) could lie in a window the span covers in part."""
-    if not spans:
-        return None
-    return int(observed_stamps(spans)[0])
-
-
-def _declared_metadata(timezone: str | None, spans: list[tuple[int, int]]) -> dict[str, str]:
-    """What the log declares in aion's metadata (:mod:`formats.log_zone`): the zone, and the
-    observed spans, so that ``aion build`` counts them as ``--observed`` spans (a window
-    only the empty marker messages hold counts for the share the spans cover)."""
-    from aion_cli.formats.log_zone import KEY, OBSERVED_KEY, spans_text
-
-    out = {} if timezone is None else {KEY: timezone}
-    if spans:
-        out[OBSERVED_KEY] = spans_text(spans)
-    return out
 
 
 def _check_chunk(chunk: DetectionBatch, kind: str, held: DetectionBatch | None) -> None:

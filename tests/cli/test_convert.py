@@ -10,7 +10,7 @@ import numpy.typing as npt
 import pytest
 
 from aion_cli.formats.detections.frame import FrameDetections
-from aion_cli.formats.tracks_log import OBSERVED_INTERVAL_NS
+from aion_cli.formats.observed_marks import OBSERVED_INTERVAL_NS
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json, warning_lines
 from tests.cli.logdata import T0, save_graph_file
 from tests.shared_data import SHARED_DATA

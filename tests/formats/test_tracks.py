@@ -12,7 +12,7 @@ import pytest
 
 from aion_cli.engine.types import DetectionBatch
 from aion_cli.errors import InputError
-from aion_cli.formats import track_csv, track_messages, tracks_log
+from aion_cli.formats import observed_marks, track_csv, track_messages, tracks_log
 from aion_cli.formats import tracks as ft
 from aion_cli.formats.detections.frame import FrameDetections
 from tests.shared_data import SHARED_DATA, needs, real_path
@@ -344,14 +344,14 @@ def test_tracks_to_log_ros1_bag_spencer(tmp_path: Path) -> None:
 
 def test_observed_stamps_every_interval_and_the_last_instant() -> None:
     spans = [(90 * S, 100 * S), (0, 95 * S), (200 * S, 200 * S + 1)]  # overlapping, unsorted
-    stamps = tracks_log.observed_stamps(spans, 30 * S)
+    stamps = observed_marks.observed_stamps(spans, 30 * S)
     assert stamps.tolist() == [0, 30 * S, 60 * S, 90 * S, 100 * S - 1, 200 * S]
-    assert tracks_log.observed_stamps([]).tolist() == []
-    assert tracks_log.OBSERVED_INTERVAL_NS == 30 * S
+    assert observed_marks.observed_stamps([]).tolist() == []
+    assert observed_marks.OBSERVED_INTERVAL_NS == 30 * S
     with pytest.raises(InputError, match="ends before it starts"):
-        tracks_log.observed_stamps([(5, 5)])
+        observed_marks.observed_stamps([(5, 5)])
     with pytest.raises(InputError, match="interval"):
-        tracks_log.observed_stamps([(0, S)], 0)
+        observed_marks.observed_stamps([(0, S)], 0)
 
 
 def _log_messages(path: Path) -> tuple[list[int], FrameDetections, npt.NDArray[np.int64]]:
@@ -391,7 +391,7 @@ def test_tracks_to_log_marks_observed_spans(tmp_path: Path, container: str, msgt
     summary = tracks_log.tracks_to_log(
         batch, out, container=container, msgtype=msgtype, observed=spans
     )
-    marks = tracks_log.observed_stamps(spans)
+    marks = observed_marks.observed_stamps(spans)
     assert len(marks) == 3600 // 30 + 1 + 3599 // 30 + 1 + 1
     assert summary.detection_messages == 3
     assert summary.observed_messages == len(marks)

@@ -121,7 +121,7 @@ def test_times_beyond_a_containers_header_stamps_are_refused(tmp_path: Path) -> 
 
 def test_observed_spans_of_decades_are_refused_before_anything_is_written() -> None:
     """A 1970 start (a typo) asked for 59 million empty marker messages and ran for minutes."""
-    from aion_cli.formats.tracks_log import MOST_OBSERVED_MARKS, observed_stamps
+    from aion_cli.formats.observed_marks import MOST_OBSERVED_MARKS, observed_stamps
 
     day = 86_400 * 10**9
     with pytest.raises(InputError, match=r"cover 56\.0 years"):
