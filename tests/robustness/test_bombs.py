@@ -19,15 +19,8 @@ import pytest
 from aion_cli.errors import ConfigError
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.logs import open_logs
-from tests.formats.craft import (
-    McapFile,
-    McapParts,
-    bag_topic,
-    craft_bag,
-    mcap_parts,
-    records_chunk,
-    zeros_chunk,
-)
+from tests.formats.craft import McapFile, McapParts, mcap_parts, records_chunk, zeros_chunk
+from tests.formats.craft_bag import bag_topic, craft_bag
 from tests.robustness.conftest import assert_one_error, run, walk, write_log
 
 MiB = 1 << 20

@@ -24,15 +24,8 @@ import pytest
 from aion_cli.errors import LogFormatError, MapFileError
 from aion_cli.formats.logs import open_logs
 from aion_cli.formats.raw import check_regular_input
-from tests.formats.craft import (
-    McapFile,
-    McapParts,
-    Summary,
-    bag_topic,
-    craft_bag,
-    mcap_parts,
-    records_chunk,
-)
+from tests.formats.craft import McapFile, McapParts, Summary, mcap_parts, records_chunk
+from tests.formats.craft_bag import bag_topic, craft_bag
 from tests.robustness.conftest import (
     T0,
     S,

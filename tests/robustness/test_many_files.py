@@ -18,7 +18,8 @@ from pathlib import Path
 import pytest
 from mcap.records import Message
 
-from tests.formats.craft import McapFile, bag_topic, craft_bag, mcap_parts, records_chunk
+from tests.formats.craft import McapFile, mcap_parts, records_chunk
+from tests.formats.craft_bag import bag_topic, craft_bag
 from tests.robustness.conftest import T0, S, walk, write_log
 
 LIMIT = 64

@@ -22,7 +22,8 @@ import pytest
 
 from aion_cli.formats.logs import open_logs
 from tests.cli.conftest import run_json
-from tests.formats.craft import McapFile, McapParts, bag_topic, craft_bag, mcap_parts, records_chunk
+from tests.formats.craft import McapFile, McapParts, mcap_parts, records_chunk
+from tests.formats.craft_bag import bag_topic, craft_bag
 from tests.robustness.conftest import (
     T0,
     S,
