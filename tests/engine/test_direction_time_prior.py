@@ -14,7 +14,13 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.temporal.direction_prior import TIME_FALLBACK, time_prior
+from aion_cli.engine.temporal.direction_prior import (
+    KAPPA_RANGE,
+    TIME_FALLBACK,
+    TIME_KAPPA_LOW,
+    fitted_kappa,
+    time_prior,
+)
 from aion_cli.errors import ConfigError
 from benchmarks.forecast_scenarios import SCENARIOS, run
 
@@ -45,6 +51,19 @@ def test_directions_that_keep_to_the_hour_get_a_weak_time_prior() -> None:
     steady = time_prior(auto, lambda: _per_bin(False, rng))
     assert 1.0 < varying < 4.0
     assert steady > 50.0
+
+
+def test_directions_that_keep_to_the_hour_without_exception_stop_at_one() -> None:
+    """Every hour walked one way only (east in the even hours, west in the odd): the
+    likelihood keeps rising toward κ_t = 0, so the estimate is the lower end, 1 for κ_t
+    (an hour's histogram counts the static one as one detection) where κ's own search
+    would stop at 0.5."""
+    counts, parent = _per_bin(True, np.random.default_rng(7))
+    one_way = np.zeros_like(counts)
+    even = (np.arange(counts.shape[0]) % 24) % 2 == 0
+    one_way[even, 0], one_way[~even, 4] = 12.0, 12.0
+    assert time_prior(ModelConfig(), lambda: (one_way, parent)) == pytest.approx(TIME_KAPPA_LOW)
+    assert fitted_kappa(one_way, parent) == pytest.approx(KAPPA_RANGE[0])
 
 
 def test_a_number_is_kept_and_too_few_bins_fall_back() -> None:

@@ -46,6 +46,13 @@ GROUP_PRIOR = 10.0
 KAPPA_RANGE = (0.5, 100.0)
 """Bounds of the estimate: above 0 so that no probability is zero, and finite for a map whose
 entries all agree with their parents (where the likelihood grows without end)."""
+TIME_KAPPA_LOW = 1.0
+"""κ_t's lower end (κ's is :data:`KAPPA_RANGE`'s 0.5): an hour's direction histogram counts
+the entry's static one as at least one detection. Where directions keep to the hour without
+exception (a corridor walked east every morning, west every afternoon) the likelihood rises
+toward κ_t = 0 and the estimate sits at this end; at 0.5, a detection against the hour's way
+in a day-ahead test cost so much that the scores chose the static histogram for one cell of
+ten in ``tests/evaluation/test_grid.py``'s flipping corridor (stop 67's CI run); from 1 none."""
 MIN_ENTRIES = 10
 """Entries with at least two directed detections needed for an estimate."""
 MAX_ENTRIES = 2048
@@ -82,14 +89,17 @@ def time_prior(config: ModelConfig, per_bin: Callable[[], tuple[F64, F64]]) -> f
     static one. :data:`TIME_FALLBACK` with fewer than :data:`MIN_ENTRIES` pairs that tell."""
     value = config.direction_time_prior
     if isinstance(value, str):
-        return fitted_kappa(*per_bin(), fallback=TIME_FALLBACK)
+        return fitted_kappa(*per_bin(), fallback=TIME_FALLBACK, low=TIME_KAPPA_LOW)
     return float(value)
 
 
-def fitted_kappa(counts: F64, parent: F64, fallback: float = FALLBACK) -> float:
-    """The maximum marginal likelihood κ (module docstring), found by golden-section search
-    on ln κ (numpy only: no ``scipy`` import on a query's path); ``fallback`` with fewer
-    than :data:`MIN_ENTRIES` rows of two detections or more."""
+def fitted_kappa(
+    counts: F64, parent: F64, fallback: float = FALLBACK, low: float = KAPPA_RANGE[0]
+) -> float:
+    """The maximum marginal likelihood κ (module docstring) in [``low``, the top of
+    :data:`KAPPA_RANGE`], found by golden-section search on ln κ (numpy only: no ``scipy``
+    import on a query's path); ``fallback`` with fewer than :data:`MIN_ENTRIES` rows of two
+    detections or more."""
     n = row_sums(counts)
     tell = n >= 2
     if int(tell.sum()) < MIN_ENTRIES:
@@ -125,7 +135,7 @@ def fitted_kappa(counts: F64, parent: F64, fallback: float = FALLBACK) -> float:
         of_entries = float(total_times @ lg[k + s : k + s + t])
         return of_pairs - of_entries + entries * float(lg[-1])
 
-    lo, hi = (float(np.log(b)) for b in KAPPA_RANGE)
+    lo, hi = float(np.log(low)), float(np.log(KAPPA_RANGE[1]))
     return float(np.exp(_golden_max(log_likelihood, lo, hi, 0.03)))
 
 
