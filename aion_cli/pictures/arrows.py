@@ -38,7 +38,7 @@ from aion_cli.formats.scene_colours import (
     has_no_flow,
     has_no_heading,
 )
-from aion_cli.pictures.backdrop import Extent, squares_of
+from aion_cli.pictures.backdrop import Extent, median_nearest, squares_of
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
@@ -178,17 +178,13 @@ def arrow_spacing(fields: Sequence[ArrowField]) -> float | None:
     """The typical spacing of the arrows of ``fields`` (the panels of one picture, which
     share it): the median distance from each distinct tail to its nearest neighbour; None
     for fewer than two tails or merged arrows (their blocks space them)."""
-    from scipy.spatial import cKDTree
-
     if any(f.block is not None for f in fields):
         return None
     xy = np.concatenate([f.xy for f in fields] + [np.zeros((0, 2))])
     tails = np.unique(xy[:, 0] + 1j * xy[:, 1])
     if tails.size < 2:
         return None
-    points = np.column_stack([tails.real, tails.imag])
-    nearest, _ = cKDTree(points).query(points, k=2)
-    return float(np.median(nearest[:, 1]))
+    return median_nearest(np.column_stack([tails.real, tails.imag]))
 
 
 def spaced(fields: Sequence[ArrowField]) -> list[ArrowField]:

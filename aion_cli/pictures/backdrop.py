@@ -137,6 +137,15 @@ def outlying_cells(
     return out
 
 
+def median_nearest(points: F64) -> float:
+    """The median distance (m) from each of ``points`` f64[n,2] (distinct, at least two) to
+    the nearest other: how far apart a picture's places or arrows typically are."""
+    from scipy.spatial import cKDTree
+
+    distance, _ = cKDTree(points).query(points, k=2)
+    return float(np.median(distance[:, 1]))
+
+
 def squares_of(points: F64, side: float) -> tuple[F64, npt.NDArray[np.int64]]:
     """The occupied squares of ``side`` metres (a grid anchored at the origin) among
     ``points`` f64[n,2]: their indices f64[m,2] (sorted by x, then y) and each point's square

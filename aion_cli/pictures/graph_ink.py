@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.formats.scene_colours import EDGE_GREY, NO_FLOW_GREY
-from aion_cli.pictures.backdrop import Color, Extent
+from aion_cli.pictures.backdrop import Color, Extent, median_nearest
 from aion_cli.scene import Scene
 
 F64 = npt.NDArray[np.float64]
@@ -63,10 +63,7 @@ def place_spacing(scenes: Sequence[Scene]) -> float:
         xy = np.asarray(scene.places_xyz, dtype=np.float64)[:, :2]
         xy = np.unique(xy[np.isfinite(xy).all(axis=1)], axis=0)
         if len(xy) >= 2:
-            from scipy.spatial import cKDTree
-
-            distance, _ = cKDTree(xy).query(xy, k=2)
-            return float(np.median(distance[:, 1]))
+            return median_nearest(xy)
     return float("nan")
 
 
