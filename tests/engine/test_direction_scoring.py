@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from aion_cli.engine.temporal.direction_scoring import DetectionBins
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.fremen_parts import _running_sum
 from aion_cli.engine.temporal.pooling import PoolStats
-from aion_cli.engine.temporal.scoring import _DetectionBins
 from aion_cli.engine.windows import to_model_seconds
 from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
 
@@ -41,7 +41,7 @@ def test_direction_at_equals_the_full_histograms_at_the_asked_bins() -> None:
     counts = np.zeros((pairs, params.bins))
     counts[np.arange(pairs), rng.integers(0, params.bins, pairs)] = rng.integers(1, 5, pairs)
     counts[::3, 0] += 1.0  # some pairs with detections in two bins
-    counted = _DetectionBins.of(counts)
+    counted = DetectionBins.of(counts)
     assert counted.pair.size > pairs  # two bins for a third of the pairs
     np.testing.assert_array_equal(counts[counted.pair, counted.bin], counted.count)
     assert np.all(np.diff(counted.pair) >= 0)

@@ -21,15 +21,14 @@ profile bin, and for FreMEn from the day's Fourier sums wherever its lower
 bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
 fewer directed detections before the day than κ_t (``direction_time_prior``, or its estimate from
 the state before the day: ``Forecaster.kappa_t``) scores its time-varying
-direction families as its static one (their histograms cannot differ much from it). The
+direction families as its static one (their histograms cannot differ much from it;
+:mod:`~aion_cli.engine.temporal.direction_scoring` scores the directions). The
 accumulators then absorb the day (:mod:`~aion_cli.engine.temporal.absorption`). Candidates
 are scored in blocks of ``_ENTRIES``, each entry's pairs in their order, so the scores do not
 depend on the block size.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -38,6 +37,7 @@ from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.absorption import absorb_day, slot_times, slot_utc_seconds
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.direction_scoring import direction_day_scores
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -47,16 +47,11 @@ from aion_cli.engine.types import F64, I64
 
 C128 = npt.NDArray[np.complex128]
 _PAIRS = 1 << 15
-_DIRECTION_PAIRS = 1 << 13
-"""Pairs whose direction probabilities are evaluated together (temporaries under 1 MB)."""
 _ENTRIES = 1 << 12
 """Candidates scored together: a block's temporaries stay tens of MB whatever the map's size
 (whole-map temporaries of GB cost more in fresh pages than in arithmetic)."""
 PEARSON_CAP = 100.0
 """K²: a window's squared Pearson residual counts at most this in ``flow_chi2`` (|r| ≤ 10)."""
-_LOG_FLOOR = 1e-12
-"""Probabilities below this count as it in log-likelihoods (raw histograms, κ = 0, have
-zeros)."""
 
 
 def close_day(
@@ -210,7 +205,19 @@ def _score_block(
         state.flow_days,
     )
     state.flow_scored[candidates] += terms
-    _score_directions(params, state, fc, candidates, ce, cs, cv, t_s, h)
+    directions = direction_day_scores(params, fc, candidates, ce, cs, cv, t_s, h)
+    if directions is not None:
+        dir_day, detections = directions
+        _add_day(
+            dir_day,
+            params.direction.index("static"),
+            detections > 0,
+            candidates,
+            state.dir_score,
+            state.dir_gain_sq,
+            state.dir_days,
+        )
+        state.dir_scored[candidates] += detections
     state.touch(candidates)
 
 
@@ -359,107 +366,6 @@ def _per_window_sums(
                 np.add.at(chunk[j], local, lam_own[:, j])  # in pair order, after the fixed
         total += chunk
     return total
-
-
-def _score_directions(
-    params: TemporalParams,
-    state: TemporalState,
-    fc: Forecaster,
-    candidates: I64,
-    ce: I64,
-    cs: I64,
-    cv: F64,
-    t_s: F64,
-    h: I64,
-) -> None:
-    b = params.bins
-    directed = cv[:, :b]
-    has = row_sums(directed) > 0
-    if not has.any():
-        return
-    ce, cs, directed = ce[has], cs[has], directed[has]
-    static = params.direction.index("static")
-    day_score = np.zeros((candidates.size, len(params.direction)))
-    # an entry with fewer directed detections than the time prior's weight cannot have a
-    # time-varying histogram far from its static one: its other families score as static
-    evidence = fc.counts[:, :b].sum(axis=1) >= fc.kappa_t
-    rich = evidence[ce]
-    pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
-    rich_e, rich_h, rich_t = ce[rich], pair_h[rich], pair_t[rich]
-    counted = _DetectionBins.of(directed)
-    timed = [d for d in range(len(params.direction)) if d != static and params.direction_enabled[d]]
-    if params.direction_enabled[static]:
-        logp = _pair_log_probs(fc, [params.direction[static]], ce, pair_h, pair_t, counted)
-        day_score[:, static] = np.bincount(ce, logp[:, 0], minlength=candidates.size)
-    if timed:
-        names = [params.direction[d] for d in timed]
-        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, counted.subset(rich))
-        for j, d in enumerate(timed):
-            day_score[:, d] = np.bincount(rich_e, logp[:, j], minlength=candidates.size)
-    for d in range(len(params.direction)):
-        if d != static and params.direction_enabled[d]:
-            day_score[~evidence, d] = day_score[~evidence, static]
-    detections = np.bincount(ce, row_sums(directed), minlength=candidates.size)
-    _add_day(
-        day_score,
-        static,
-        detections > 0,
-        candidates,
-        state.dir_score,
-        state.dir_gain_sq,
-        state.dir_days,
-    )
-    state.dir_scored[candidates] += detections
-
-
-@dataclass(frozen=True)
-class _DetectionBins:
-    """The nonzero entries of a [P, B] array of directed counts, in row-major order: pair
-    ``pair`` (ascending) has ``count`` detections in bin ``bin``. Found once per block and
-    shared by every direction family (a pair's detections fill one or two of B bins)."""
-
-    pair: I64
-    bin: I64
-    count: F64
-
-    @classmethod
-    def of(cls, directed: F64) -> _DetectionBins:
-        b = directed.shape[1]
-        flat = np.ascontiguousarray(directed).reshape(-1)
-        at = np.flatnonzero(flat)
-        pair, column = np.divmod(at, b)
-        return cls(pair, column, flat[at])
-
-    def subset(self, keep: npt.NDArray[np.bool_]) -> _DetectionBins:
-        """The same for the pairs where ``keep`` holds, renumbered in their order."""
-        new_index = np.cumsum(keep) - 1
-        on = keep[self.pair]
-        return _DetectionBins(new_index[self.pair[on]], self.bin[on], self.count[on])
-
-
-def _pair_log_probs(
-    fc: Forecaster, names: list[str], e: I64, h: I64, t_s: F64, counted: _DetectionBins
-) -> F64:
-    """Σ_b n_b log q_b per pair for each direction family of ``names``: float64[P, len(names)].
-
-    Pairs are evaluated ``_DIRECTION_PAIRS`` at a time, every family on one chunk before the
-    next, so the per-bin FreMEn terms (memoised per chunk: one pass serves every order) and the
-    [P, B] temporaries stay small: whole-day temporaries of hundreds of MB cost more in fresh
-    pages than in arithmetic. Each pair's value does not depend on the chunking. Only the
-    bins a pair has detections in are evaluated and logged (``Forecaster.direction_at``)."""
-    out = np.empty((e.size, len(names)))
-    starts = np.arange(0, e.size + _DIRECTION_PAIRS, _DIRECTION_PAIRS)
-    cut = np.searchsorted(counted.pair, starts)
-    for k, a in enumerate(range(0, e.size, _DIRECTION_PAIRS)):
-        part = slice(a, a + _DIRECTION_PAIRS)
-        pe, ph, pt = e[part], h[part], t_s[part]
-        nz = slice(int(cut[k]), int(cut[k + 1]))
-        pair, b, n = counted.pair[nz] - a, counted.bin[nz], counted.count[nz]
-        for j, name in enumerate(names):
-            q = fc.direction_at(name, pe, ph, pt, pair, b)
-            logp = n * np.log(np.maximum(q, _LOG_FLOOR))
-            out[part, j] = np.bincount(pair, logp, minlength=pe.size)
-    return out
 
 
 def _add_day(
