@@ -24,7 +24,7 @@ import numpy.typing as npt
 from aion_cli.scene import Scene
 
 if TYPE_CHECKING:
-    from aion_cli.pictures.topdown import Marker, PathLine
+    from aion_cli.pictures.topdown_panel import Marker, PathLine
 
 F64 = npt.NDArray[np.float64]
 

@@ -15,7 +15,7 @@ from aion_cli.pictures.backdrop import Extent, outlying_cells
 from aion_cli.scene import Scene
 
 if TYPE_CHECKING:
-    from aion_cli.pictures.topdown import PathLine
+    from aion_cli.pictures.topdown_panel import PathLine
 
 F64 = npt.NDArray[np.float64]
 

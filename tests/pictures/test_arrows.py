@@ -145,7 +145,7 @@ def test_the_cells_under_merged_arrows_are_one_image() -> None:
     of 24 panels took 1.5 GB and 20 s). Under merged arrows the squares are one image of the
     cell lattice: a cell's pixel has its entropy colour, faint; no cell, transparent."""
     from aion_cli.formats.scene_colours import entropy_colors
-    from aion_cli.pictures.topdown import UNDER_MERGED_ALPHA
+    from aion_cli.pictures.topdown_panel import UNDER_MERGED_ALPHA
 
     side = np.arange(0.25, 160.0, 0.5)
     xy = np.array([(x, y) for x in side for y in side if not (40 < x < 60 and 40 < y < 60)])
