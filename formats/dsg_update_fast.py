@@ -137,12 +137,12 @@ def read_dsg_update(data: bytes | memoryview, encoding: str) -> DsgUpdateFields 
 def layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = False) -> bool:
     """Whether a log's ``definition`` of ``msgtype`` is the DsgUpdate layout this module reads
     (an empty definition, a log embedding none, counts as that layout)."""
-    from aion_cli.formats import msgdefs
+    from aion_cli.formats import msg_layouts
 
     if normalize_msgtype(msgtype) != DSG_UPDATE:
         return False
     ros_version = 1 if encoding == "ros1" else 2
-    return msgdefs.same_layout(definition, DSG_UPDATE, ros_version, idl)
+    return msg_layouts.same_layout(definition, DSG_UPDATE, ros_version, idl)
 
 
 def update_fields(

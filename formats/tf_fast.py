@@ -269,11 +269,11 @@ def layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = Fal
     ``tf/tfMessage``) has the TFMessage layout this module decodes; an empty definition (the
     log embeds none) is taken as that layout. Anything else goes to the generic decoder, which
     reads the log's definition."""
-    from aion_cli.formats import msgdefs
+    from aion_cli.formats import msg_layouts
 
     if msgtype not in TF_TYPES:
         return False
     ros_version = 1 if encoding == "ros1" else 2
-    return msgdefs.same_layout(
+    return msg_layouts.same_layout(
         definition, msgtype, ros_version, idl, reference="tf2_msgs/msg/TFMessage"
     )

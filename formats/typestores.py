@@ -118,15 +118,16 @@ def _check_fields(types: dict[str, Any], msgtype: str, ros_version: int, idl: bo
     """Refuse a log's definition that gives ``msgtype`` no field (a text of comments only)
     where aion's own definition has fields: decoded with it, every message failed as "CDR
     message size mismatch", which named neither the definition nor what is wrong with it."""
-    from aion_cli.formats import msgdefs
+    from aion_cli.formats.msg_layouts import shipped_layout
+    from aion_cli.formats.msgdefs import UnknownMessageTypeError
     from aion_cli.formats.raw import normalize_msgtype
 
     entry = types.get(msgtype) or types.get(normalize_msgtype(msgtype))
     if entry is None or entry[1]:
         return
     try:
-        layout = msgdefs.shipped_layout(msgtype, ros_version)
-    except msgdefs.UnknownMessageTypeError:  # a type aion does not ship
+        layout = shipped_layout(msgtype, ros_version)
+    except UnknownMessageTypeError:  # a type aion does not ship
         return
     # (rosbags gives a type without fields, std_msgs/Empty, the one IDL requires of a struct)
     shipped = sum(name != _PLACEHOLDER for name, _ in layout)

@@ -128,13 +128,13 @@ def adapter_for(
 
 def fast_layout_matches(msgtype: str, encoding: str, definition: str, idl: bool = False) -> bool:
     """Whether a log's own ``definition`` of ``msgtype`` (for messages in ``encoding``) has the
-    layout aion's numpy fast decoder of that type was written for (:func:`msgdefs.same_layout`
+    layout aion's numpy fast decoder of that type was written for (:func:`msg_layouts.same_layout`
     against the shipped definition: ROS 1 noetic / ROS 2 galactic+ layouts). A log that embeds
     no definition is assumed to use the shipped one."""
-    from aion_cli.formats import msgdefs
+    from aion_cli.formats import msg_layouts
 
     ros_version = 1 if encoding == "ros1" else 2
-    return msgdefs.same_layout(definition, normalize_msgtype(msgtype), ros_version, idl)
+    return msg_layouts.same_layout(definition, normalize_msgtype(msgtype), ros_version, idl)
 
 
 def log_adapter(

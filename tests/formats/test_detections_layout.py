@@ -1,4 +1,4 @@
-"""The log's own definitions decide the decoder: ``msgdefs.same_layout`` (normalised
+"""The log's own definitions decide the decoder: ``msg_layouts.same_layout`` (normalised
 definitions), the detection adapters (numpy fast path only for the layout it was written for)
 and the TF fast path. Forks whose bytes the fast decoders would misread without an error are
 decoded right through the log's definition."""
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from aion_cli.formats import msgdefs
+from aion_cli.formats import msg_layouts, msgdefs
 from aion_cli.formats.detections import hash_id
 from aion_cli.formats.detections.registry import fast_layout_matches, log_adapter
 from aion_cli.formats.raw import RawMessage
@@ -26,7 +26,7 @@ TF = "tf2_msgs/msg/TFMessage"
                                      "spencer_tracking_msgs/msg/TrackedPersons"])
 def test_shipped_definition_text_matches_itself(ros: int, msgtype: str) -> None:
     text = msgdefs.definition(msgtype, ros)
-    assert msgdefs.same_layout(text, msgtype, ros)
+    assert msg_layouts.same_layout(text, msgtype, ros)
 
 
 def test_comments_whitespace_constants_and_separators_do_not_matter() -> None:
@@ -41,8 +41,8 @@ def test_comments_whitespace_constants_and_separators_do_not_matter() -> None:
         "Point  position\n"
         "Quaternion orientation\n"
     )  # sub-messages left out (Point, Quaternion, Header) come from the base store
-    assert msgdefs.same_layout(text, POSE_ARRAY, 1)
-    assert msgdefs.same_layout(text, POSE_ARRAY, 2)
+    assert msg_layouts.same_layout(text, POSE_ARRAY, 1)
+    assert msg_layouts.same_layout(text, POSE_ARRAY, 2)
 
 
 @pytest.mark.parametrize(
@@ -67,12 +67,12 @@ def test_comments_whitespace_constants_and_separators_do_not_matter() -> None:
     ],
 )
 def test_a_different_layout_does_not_match(text: str, why: str) -> None:
-    assert not msgdefs.same_layout(text, POSE_ARRAY, 2), why
+    assert not msg_layouts.same_layout(text, POSE_ARRAY, 2), why
 
 
 def test_no_definition_counts_as_the_shipped_layout() -> None:
-    assert msgdefs.same_layout("", POSE_ARRAY, 2)
-    assert msgdefs.same_layout("  \n", POSE_ARRAY, 1)
+    assert msg_layouts.same_layout("", POSE_ARRAY, 2)
+    assert msg_layouts.same_layout("  \n", POSE_ARRAY, 1)
     assert fast_layout_matches(POSE_ARRAY, "cdr", "")
 
 
