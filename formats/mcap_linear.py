@@ -1,7 +1,7 @@
 """The linear read of an MCAP file: record by record in file order, what aion does with a file
 that has no usable summary (truncated, written by a recorder that was killed, or a summary that
 disagrees with the data section), and the chunk reading and warnings the indexed read of
-:mod:`formats.mcap_source` shares with it.
+:mod:`formats.mcap_chunked` shares with it.
 
 :class:`_McapLinearRead` holds that half of :class:`formats.mcap_source._McapSource` (which
 derives from it and sets the state it uses when it opens the file): the opening scan that
