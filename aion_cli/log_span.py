@@ -120,7 +120,7 @@ def _recorded_ns(
     messages (each recording of several logs, not only the whole set: one stray in one of
     two logs counted its year in the time recorded); and the same union per topic held by
     such a recording, over the recordings that hold the topic (its rate's time)."""
-    from aion_cli.formats.logs import covered_ns
+    from aion_cli.formats.log_times import covered_ns
     from aion_cli.log_times import in_range_mask
 
     spans = logset.recording_times()

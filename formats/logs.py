@@ -24,7 +24,8 @@ read through a decompressed temporary copy (:mod:`formats.rosbag2_storage`), rem
 :meth:`LogSet.recorded_windows` says which time windows the logs recorded anything in, from the
 same indexes (:mod:`formats.recorded`), without reading message payloads where a container
 indexes its messages; :meth:`LogSet.index_times` gives the log times :meth:`LogSet.messages`
-will yield, in its order, from them (:mod:`formats.stream_times`), where they say exactly that.
+will yield, in its order, from them (:mod:`formats.stream_times`), where they say exactly that
+(these answers from the indexes are in :mod:`formats.log_times`).
 
 This module is the public front: :func:`open_logs`, :class:`LogSet` and the time-ordered merge
 of many files; :mod:`formats.log_paths` opens one path into its sources. The readers live one
@@ -44,11 +45,11 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import LogFormatError, MessageDecodeError, TopicNotFoundError
-from aion_cli.formats import recorded
 from aion_cli.formats.limits import ReadLimits
 from aion_cli.formats.log_merge import merge_by_start
 from aion_cli.formats.log_paths import open_sources
 from aion_cli.formats.log_source import LogFile, OtherChannel, _Source
+from aion_cli.formats.log_times import _RecordedTimes
 from aion_cli.formats.raw import RawMessage, TopicInfo, UnreadHint, topic_spelling_hint
 from aion_cli.formats.typestores import _store_with_definition
 
@@ -56,14 +57,12 @@ if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
     from aion_cli.formats.log_overlaps import Overlap
-    from aion_cli.formats.recorded import Windows
-    from aion_cli.formats.stream_times import StreamTimes
 
 
 # --- the merged set -------------------------------------------------------------------------
 
 
-class LogSet:
+class LogSet(_RecordedTimes):
     """Several opened logs seen as one: topics, time range, merged message stream, decoding.
 
     Use as a context manager (or call :meth:`close`). Counts and the time range come from the
@@ -139,20 +138,6 @@ class LogSet:
     def duration_ns(self) -> int:
         return max(self.end_ns - self.start_ns, 0)
 
-    def recorded_ns(self, topic: str) -> int:
-        """How long the files holding messages of ``topic`` recorded: the union of their
-        spans (first to last message), so the time between two logs of other days is left
-        out and two logs of one moment count it once; the storage files of one rosbag2 bag
-        are joined first (:meth:`recording_times`: it recorded the time between them too)."""
-        return covered_ns(self.recording_times([topic]).values())
-
-    def recorded_total_ns(self) -> int:
-        """How long the logs recorded: the union of the spans of :meth:`recording_times` (the
-        storage files of one rosbag2 bag joined), so the days between two logs are left out
-        and two logs of one moment count it once. :attr:`duration_ns` is the span from the
-        first message to the last instead."""
-        return covered_ns(self.recording_times().values())
-
     def overlaps(self, topics: set[str], at_least_ns: int) -> list[Overlap]:
         """Pairs of files on a topic of ``topics`` at the same time, at least ``at_least_ns``
         or half of the shorter one's (:func:`formats.log_overlaps.find_overlaps`)."""
@@ -216,66 +201,6 @@ class LogSet:
             [self._sources[k] for k in chosen], selected, between, None, [recording] * len(chosen)
         )
 
-    def recorded_windows(self, window_ns: int) -> Windows:
-        """Sorted unique window indices ``floor(t / window_ns)`` holding at least one message
-        (any topic, any file of the set, log time).
-
-        What a fixed sensor observed: the windows in which it recorded something, never the
-        time between two recordings within a file or between files. Read from the containers'
-        indexes without message payloads where they have them (MCAP summaries, ROS 1 bag
-        indexes, rosbag2 sqlite3); :class:`ConfigError` for a window that is not a positive
-        number of nanoseconds.
-        """
-        return recorded.union(w for _, w in self.recorded_windows_by_file(window_ns))
-
-    def recorded_windows_by_file(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
-        """:meth:`recorded_windows` of each entry of :attr:`files`, in the same order (a rosbag2
-        folder is one entry; its mcap storage files are one entry each)."""
-        if self._closed:
-            raise ValueError("recorded_windows() on a closed LogSet")
-        size = recorded.window_size(window_ns)
-        return [(s.file, s.recorded_windows(size)) for s in self._sources]
-
-    @property
-    def recordings(self) -> list[int]:
-        """Per entry of :attr:`files`, the recording it belongs to (:func:`open_logs`: the
-        position of the path it was opened from; the storage files of one bag share it)."""
-        return list(self._recordings)
-
-    def recording_times(self, topics: Iterable[str] | None = None) -> dict[int, tuple[int, int]]:
-        """Per recording (:attr:`recordings`: a path given, the storage files of one bag
-        joined), the first and last message time its files' indexes or summaries give;
-        recordings without a message are left out. ``topics``: of the files that hold a
-        message of one of them only (the files' whole spans)."""
-        if topics is None:
-            return self._joined([file.message_count > 0 for file in self.files])
-        selected = set(topics)
-        return self._joined([
-            any(t.topic in selected and t.count for t in s.topics.values())
-            or any(c.topic in selected and c.count for c in s.other_channels)
-            for s in self._sources
-        ])
-
-    def _joined(self, kept: list[bool]) -> dict[int, tuple[int, int]]:
-        """Per recording, the first and last message time of its files that are ``kept``."""
-        spans: dict[int, tuple[int, int]] = {}
-        for key, file, keep in zip(self._recordings, self.files, kept, strict=True):
-            if keep:
-                lo, hi = spans.get(key, (file.start_ns, file.end_ns))
-                spans[key] = (min(lo, int(file.start_ns)), max(hi, int(file.end_ns)))
-        return spans
-
-    def recorded_windows_by_recording(self, window_ns: int) -> list[tuple[LogFile, Windows]]:
-        """:meth:`recorded_windows_by_file` with the storage files of one rosbag2 bag joined
-        (the first file stands for the bag): a recorder that split its bag by size or duration
-        recorded the time between the last message of one file and the first of the next,
-        which a tracker publishing only when it sees someone leaves without a message."""
-        by_file = self.recorded_windows_by_file(window_ns)
-        joined: dict[int, tuple[LogFile, list[Windows]]] = {}
-        for key, (file, windows) in zip(self._recordings, by_file, strict=True):
-            joined.setdefault(key, (file, []))[1].append(windows)
-        return [(file, recorded.union(parts)) for file, parts in joined.values()]
-
     def skips_by_time(self) -> bool:
         """Whether ``messages(topics, between)`` reads only the files' parts near that time
         (every file an indexed MCAP read by chunk), so that reading a few seconds here and
@@ -286,49 +211,6 @@ class LogSet:
         """The files :meth:`skips_by_time` fails for: read from their start whatever time is
         wanted (an MCAP without its chunk index, such as a truncated one), for notes naming them."""
         return [source.file.path for source in self._sources if not source.skips_by_time()]
-
-    def index_times(self, topics: Iterable[str], vouch: bool = True) -> StreamTimes | None:
-        """The log times :meth:`messages` would yield on ``topics``, in its order, read from
-        the containers' indexes without the messages (:mod:`formats.stream_times`), or None
-        when one file's index cannot say exactly that. Each reader then vouches for the
-        chunks whose times came from their index alone: reading one of them later fails with
-        :class:`~aion_cli.errors.StaleIndexError` (unless ``vouch`` is False: ``aion info``)."""
-        if self._closed:
-            raise ValueError("index_times() on a closed LogSet")
-        from aion_cli.formats import stream_times
-
-        selected = set(topics)
-        parts = []
-        for source in self._sources:
-            part = source.index_times(selected)
-            if part is None:
-                return None
-            parts.append(part)
-        found = stream_times.merged(parts)
-        if found is not None and vouch:
-            for source, part in zip(self._sources, parts, strict=True):
-                source.vouch(part.chunks)
-        return found
-
-    def index_times_by_recording(self, topics: Iterable[str]) -> dict[int, StreamTimes] | None:
-        """:meth:`index_times` per recording (the keys of :meth:`recording_times`), nothing
-        vouched for; None when one file's index cannot give the times."""
-        from aion_cli.formats import stream_times
-
-        selected = set(topics)
-        parts: dict[int, list[StreamTimes]] = {}
-        for key, source in zip(self._recordings, self._sources, strict=True):
-            part = source.index_times(selected)
-            if part is None:
-                return None
-            parts.setdefault(key, []).append(part)
-        joined: dict[int, StreamTimes] = {}
-        for key, found in parts.items():
-            merged = stream_times.merged(found)
-            if merged is None:
-                return None
-            joined[key] = merged
-        return joined
 
     def decode(self, msg: RawMessage) -> Any:
         """``msg`` as a rosbags message object, decoded with the definition the log embeds for
@@ -387,17 +269,6 @@ class LogSet:
         tb: TracebackType | None,
     ) -> None:
         self.close()
-
-
-def covered_ns(spans: Iterable[tuple[int, int]]) -> int:
-    """The length of the union of ``(start, end)`` spans (ns): overlaps counted once."""
-    total, reach = 0, None
-    for lo, hi in sorted(spans):
-        lo = lo if reach is None else max(lo, reach)
-        if hi > lo:
-            total += hi - lo
-        reach = hi if reach is None else max(reach, hi)
-    return total
 
 
 def open_logs(
