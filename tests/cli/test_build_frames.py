@@ -1,13 +1,17 @@
-"""Frame names on the command line are spelt as the logs' frame ids are compared: ROS 1 tools
-write ``/map`` where ROS 2 writes ``map``, and both name one frame."""
+"""``aion build``'s frames: ``--map-frame`` for logs without TF (and the map remembering it for
+the logs after), empty frame names refused, TF trees that cannot carry a frame. Frame names on
+the command line are spelt as the logs' frame ids are compared: ROS 1 tools write ``/map``
+where ROS 2 writes ``map``, and both name one frame."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from aion_cli.formats.mapfile import read_manifest
 from aion_cli.formats.writers import LogWriter
-from tests.cli.conftest import assert_one_line_error, run, run_json
+from tests.cli.conftest import Office, assert_one_line_error, run, run_json
 from tests.cli.logdata import T0, write_office_log
 
 
@@ -244,3 +248,80 @@ def test_detections_that_name_no_frame_are_said_to_be_taken_as_the_map_frame(
     write_office_log(named, tf=False, graph=False)
     report = run_json("build", named, "-o", tmp_path / "n.aion", "--format", "json")
     assert not [n for n in report["notes"] if "name no frame" in n]
+
+
+def test_frames_without_tf_and_map_frame_option(tmp_path: Path) -> None:
+    log = tmp_path / "odom.mcap"
+    write_office_log(log, tf=False, frame="odom")
+    result = run("build", log)
+    assert result.exit_code == 2
+    assert_one_line_error(result.stderr, "'odom'")
+    assert "--map-frame odom" in result.stderr
+    assert not (tmp_path / "odom.aion").exists()
+    report = run_json("build", log, "--map-frame", "odom", "--format", "json")
+    assert report["detections"]["used"] == 300
+
+
+def test_a_map_remembers_its_frame_for_the_logs_after(tmp_path: Path) -> None:
+    """A map built with --map-frame records it: continuing it (aion build --map) and judging
+    it on later logs (aion evaluate holdout) read those logs into the same frame without the
+    option again; a map without the record (older maps) still defaults to 'map'."""
+    first, later = tmp_path / "first.mcap", tmp_path / "later.mcap"
+    write_office_log(first, tf=False, frame="odom")
+    write_office_log(later, tf=False, frame="odom", shift_s=3 * 86_400)
+    site = tmp_path / "site.aion"
+    assert run("build", first, "--map-frame", "odom", "-o", site, "-q").exit_code == 0
+    assert read_manifest(site)["map_frame"] == "odom"
+    doc = run_json("evaluate", "holdout", site, later, "--format", "json")
+    assert doc["test"]["detections"] == 300
+    report = run_json("build", later, "--map", site, "--format", "json")
+    assert report["detections"]["used"] == 300
+    assert read_manifest(site)["map_frame"] == "odom"
+    third = tmp_path / "third.mcap"
+    write_office_log(third, tf=False, frame="odom", shift_s=6 * 86_400)
+    other = tmp_path / "other.aion"  # an explicit frame still wins
+    result = run("build", third, "--map", site, "--map-frame", "map", "-o", other)
+    assert result.exit_code == 2
+    assert "'odom'" in result.stderr
+
+
+def test_continuing_a_map_in_another_frame_is_a_warning(tmp_path: Path) -> None:
+    """``--map-frame`` on a continued map of another frame (the hint of the missing-TF error
+    suggests it: leg_tracker bags in 'rear_laser' onto a map of 'right_laser') joined the
+    positions of two frames in one map without a word, the manifest then recording only the
+    new one."""
+    first, later = tmp_path / "first.mcap", tmp_path / "later.mcap"
+    write_office_log(first, tf=False, frame="right_laser")
+    write_office_log(later, tf=False, frame="rear_laser", shift_s=3 * 86_400)
+    site = tmp_path / "site.aion"
+    assert run("build", first, "--map-frame", "right_laser", "-o", site, "-q").exit_code == 0
+    report = run_json("build", later, "--map", site, "--map-frame", "rear_laser", "-o",
+                      tmp_path / "both.aion", "--format", "json")
+    assert report["detections"]["used"] == 300
+    warned = [w for w in report["warnings"] if "holds positions in frame 'right_laser'" in w]
+    assert len(warned) == 1, report["warnings"]
+    assert "--map-frame reads these logs into 'rear_laser'" in warned[0]
+    assert read_manifest(tmp_path / "both.aion")["map_frame"] == "rear_laser"
+    # the map's own frame, given or not, is no news
+    again = tmp_path / "again.mcap"
+    write_office_log(again, tf=False, frame="right_laser", shift_s=3 * 86_400)
+    for given in ((), ("--map-frame", "right_laser")):
+        report = run_json("build", again, "--map", site, *given, "-o",
+                          tmp_path / f"same{len(given)}.aion", "--format", "json")
+        assert not [w for w in report["warnings"] if "holds positions in frame" in w]
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "example"),
+    [("--base-frame", "", "base_link"), ("--base-frame", " ", "base_link"),
+     ("--map-frame", "", "map"), ("--map-frame", "/", "map"), ("--base-frame", "//", "base_link")],
+)
+def test_an_empty_frame_is_refused(
+    office: Office, tmp_path: Path, option: str, value: str, example: str
+) -> None:
+    """An empty --base-frame made the robot's log a fixed sensor with only a note."""
+    out = tmp_path / "m.aion"
+    result = run("build", office.log, "-o", out, option, value)
+    assert result.exit_code == 2, result.stderr
+    assert_one_line_error(result.stderr, option, f"e.g. {example}")
+    assert not out.exists()
