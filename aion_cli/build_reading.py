@@ -3,7 +3,7 @@
 TF into its trees (:mod:`aion_cli.tf_trees`) and the log times of every topic the build uses,
 with the time-sanity rules (:mod:`aion_cli.log_times`) over them; which windows the map
 observed (:func:`aion_cli.build_observation.observe`); and the graph added once at the start
-(``--graph FILE`` or ``--derive-graph``, :func:`aion_cli.graph_feed.graph_source`), with the
+(``--graph FILE`` or ``--derive-graph``, :func:`aion_cli.graph_source.graph_source`), with the
 model config they are read with.
 
 :class:`ReadStep` holds these methods of :class:`aion_cli.pipeline._Build`, which inherits
@@ -23,9 +23,9 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.formats.log_overlaps import topics_at_once
-from aion_cli.graph_feed import graph_source
 from aion_cli.graph_owners import graph_streams_at_once
 from aion_cli.graph_schedule import GraphTimes
+from aion_cli.graph_source import graph_source
 from aion_cli.log_observed import marker_times, observed_fill
 from aion_cli.tf_feed import (
     check_tf,
@@ -130,7 +130,7 @@ class ReadStep(StreamStep):
         self, logset: Any, plan: TopicPlan, tf: TfTrees, config: ModelConfig
     ) -> GraphSnapshot | None:
         """The graph from ``--graph FILE`` or ``--derive-graph`` (added once, at the start;
-        :func:`aion_cli.graph_feed.graph_source`)."""
+        :func:`aion_cli.graph_source.graph_source`)."""
         start = self._times.start_ns
         if start is None:
             start = int(logset.start_ns)
