@@ -21,9 +21,10 @@ Every stateful step treats each piece as a call of its own would, so the batches
 same as decoding piece by piece.
 
 This module holds :class:`DetectionFeeder` (one feeder's decode: adapters, uninformative yaws,
-TF, track linking, headings) and :func:`log_adapters`; the rest lives beside it:
-:mod:`aion_cli.detection_frames` (the move into the map frame, :class:`MapFrameMover`), and,
-re-exported here, :mod:`aion_cli.detection_counts` (:class:`DetectionCounts`,
+TF, track linking, headings); the rest lives beside it: :mod:`aion_cli.detection_frames` (the
+move into the map frame, :class:`MapFrameMover`), and, re-exported here,
+:mod:`aion_cli.detection_adapters` (each topic's adapter, built before anything is read:
+:func:`log_adapters`), :mod:`aion_cli.detection_counts` (:class:`DetectionCounts`,
 :class:`TopicCounts`, :data:`HEADING_SOURCES`), :mod:`aion_cli.detection_jobs` (the segment
 bookkeeping of a decode job, :class:`TopicFeeders`) and :mod:`aion_cli.detection_chunks`
 (:class:`Chunk`, :func:`chunks`, :func:`decoded_chunks`).
@@ -32,13 +33,13 @@ bookkeeping of a decode job, :class:`TopicFeeders`) and :mod:`aion_cli.detection
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping, Sequence
-from itertools import islice
+from collections.abc import Mapping, Sequence
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from aion_cli.detection_adapters import AdapterFactory, default_factory, log_adapters
 from aion_cli.detection_chunks import MAX_CHUNK_BYTES, Chunk, chunks, decoded_chunks
 from aion_cli.detection_counts import HEADING_SOURCES, DetectionCounts, TopicCounts, speed_micro
 from aion_cli.detection_frames import MapFrameMover
@@ -64,21 +65,6 @@ if TYPE_CHECKING:
 
 _VARIES = float("nan")
 _SAME_YAW = 1e-9  # rad: yaws closer than this are one orientation
-
-#: Builds the adapter of one (topic, message type, encoding) the first time it is seen.
-AdapterFactory = Callable[[str, str, str], "DetectionAdapter"]
-
-
-def _default_factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
-    """The built-in adapter with aion's shipped definitions (no log at hand)."""
-    from aion_cli.errors import TopicNotFoundError
-    from aion_cli.formats.detections import adapter_for
-
-    adapter = adapter_for(msgtype)
-    if adapter is None:
-        raise TopicNotFoundError(f"no people-detection adapter for {msgtype} on {topic!r}")
-    return adapter
-
 
 def yaw_rule_blocker(
     before: Mapping[str, float],
@@ -147,7 +133,7 @@ class DetectionFeeder:
         self.counts = counts
         self.cell_size = cell_size  # the map's: rows it cannot place stop before linking
         self.adapters: dict[tuple[str, str, str], DetectionAdapter] = dict(adapters or {})
-        self.factory = factory or _default_factory
+        self.factory = factory or default_factory
         self.headings = HeadingEstimator()
         self.apart = apart
         self._own_headings: dict[int, HeadingEstimator] = {}  # per recording in ``apart``
@@ -406,56 +392,6 @@ class DetectionFeeder:
             if n:
                 key = "linked" if linked and name == "track" else name
                 self.counts.headings[key] += int(n)
-
-
-def log_adapters(
-    logset: Any, topics: list[Any], mappings: Mapping[str, Any]
-) -> tuple[dict[tuple[str, str, str], DetectionAdapter], AdapterFactory, list[str]]:
-    """The adapters of a build's detection ``topics`` (TopicInfo) in ``logset``, built now so
-    that a bad mapping or an unreadable definition stops the build before anything is read;
-    a factory for the same topic in another encoding (logs of both ROS versions); and notes
-    on topics whose log definition keeps them off the numpy fast path.
-
-    Every adapter deserializes with a typestore built from the log's own definition of its
-    topic's type; the fast decoder is kept only where that definition has the layout it was
-    written for; a topic of ``mappings`` (topic -> TopicMapping) is read with its mapping,
-    checked against the log's definition."""
-    from aion_cli.errors import TopicNotFoundError
-    from aion_cli.formats.detections.registry import log_adapter
-
-    def factory(topic: str, msgtype: str, encoding: str) -> DetectionAdapter:
-        store = logset.typestore(topic, msgtype, encoding)
-        mapping = mappings.get(topic)
-        if mapping is not None:
-            adapter: DetectionAdapter = mapping.check(store).adapter(store)
-            return adapter
-        definition, idl = logset.definition(topic, msgtype, encoding)
-        found = log_adapter(msgtype, encoding, definition, idl, store)
-        if found is None:
-            raise TopicNotFoundError(
-                f"no people-detection adapter for {msgtype} on {topic!r}",
-                hint="map it with --detections-mapping FILE",
-            )
-        if getattr(found.extract, "learn", None) is not None:  # the Marker reader's id rule
-            from aion_cli.formats.detections.markers import ID_SAMPLE, learn_ids
-
-            learn_ids(found, islice(logset.messages([topic]), ID_SAMPLE), encoding)
-        return found
-
-    adapters = {}
-    notes = []
-    for info in topics:
-        key = (info.topic, info.msgtype, info.encoding)
-        adapter = adapters[key] = factory(*key)
-        said = getattr(adapter.extract, "describe", None)
-        if said is not None and said():
-            notes.append(f"{info.topic}: {said()}")
-        if adapter.layout_differs:
-            notes.append(
-                f"{info.topic}: the log's definition of {info.msgtype} differs from the layout "
-                "of aion's fast decoder; its messages are decoded with the log's own definition"
-            )
-    return adapters, factory, notes
 
 
 __all__ = [

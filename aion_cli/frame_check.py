@@ -90,8 +90,8 @@ def detection_frames(
     as the build decodes them (with ``mappings``, the ``--detections-mapping`` topics); the
     messages among them that held no detection are counted into ``report``, and how a
     Marker topic is read (``report.read_as``)."""
+    from aion_cli.detection_adapters import log_adapters
     from aion_cli.detection_counts import DetectionCounts
-    from aion_cli.detection_feed import log_adapters
     from aion_cli.errors import AionError
 
     try:

@@ -182,7 +182,7 @@ def _overlaps(logset: Any, plan: Any) -> list[str]:
     time with the same people (they count twice), over the default model's windows, and of
     detection topics that hold the same people, the detections compared with the adapters
     the build would use."""
-    from aion_cli.detection_feed import log_adapters
+    from aion_cli.detection_adapters import log_adapters
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.windows import window_ns
     from aion_cli.errors import AionError

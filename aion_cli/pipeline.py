@@ -63,8 +63,9 @@ from aion_cli.build_output import write_build
 from aion_cli.build_reading import ReadStep
 from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
 from aion_cli.continued_map import check_part, frame_warning, load_continued
+from aion_cli.detection_adapters import log_adapters
 from aion_cli.detection_counts import MapperTally
-from aion_cli.detection_feed import DetectionCounts, log_adapters
+from aion_cli.detection_feed import DetectionCounts
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.graph_arrays import file_graph_time
 from aion_cli.engine.windows import window_ns

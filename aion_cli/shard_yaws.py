@@ -41,12 +41,8 @@ def varied_by(logset: LogSet, plan: TopicPlan, opts: BuildOptions) -> dict[str, 
     seen to vary in the first :data:`SCAN_MESSAGES` messages is left out."""
     from itertools import islice
 
-    from aion_cli.detection_feed import (
-        DetectionCounts,
-        DetectionFeeder,
-        chunks,
-        log_adapters,
-    )
+    from aion_cli.detection_adapters import log_adapters
+    from aion_cli.detection_feed import DetectionCounts, DetectionFeeder, chunks
 
     out: dict[str, int] = {}
     topics = plan.names("detections")

@@ -218,7 +218,7 @@ def _decoded_quiet(logset: Any, opts: BuildOptions) -> Callable[[int], bool] | N
     if not logset.skips_by_time():
         return None
     from aion_cli.build_options import build_topics
-    from aion_cli.detection_feed import log_adapters
+    from aion_cli.detection_adapters import log_adapters
 
     plan = build_topics(logset, opts)
     adapters, factory, _ = log_adapters(logset, plan.detections, plan.mappings)
