@@ -1,7 +1,7 @@
 """Bad log messages, one fault per test: what ``aion build`` does with non-finite or absurd
 coordinates, unknown frames or missing TF, garbage, older or damaged scene graphs, damaged
-detection payloads, and detections before (or without) any scene graph. Bad containers, inputs,
-order and stamps: ``test_bad_log_files.py``.
+detection payloads, and detections before (or without) any scene graph. Bad containers:
+``test_bad_log_files.py``; inputs, order and stamps: ``test_bad_log_streams.py``.
 
 Every log is generated in ``tmp_path`` with ``formats.writers.LogWriter`` (and spark_dsg for the
 scene graphs), with the fault placed at a known message or byte, so each test states exactly
