@@ -36,7 +36,6 @@ import numpy.typing as npt
 from aion_cli.engine.descriptors import bin_of
 from aion_cli.engine.grouping import unique_inverse
 from aion_cli.engine.types import F64, I64, U64
-from aion_cli.errors import MapCorruptError
 
 FREE = -1
 CELL = 0
@@ -420,51 +419,10 @@ class EntryStore:
         rows become the store's arrays as they are, at a capacity of exactly their rows
         (:meth:`reserve` copies them when it grows), instead of being copied into fresh
         arrays (issue 15: 43 MB copied and faulted in per query of a 10^5-entry map)."""
-        try:
-            n = len(arrays[f"{prefix}kind"])
-            members = {}
-            for name in cls._array_names():
-                if name in HEADING_SUMS and f"{prefix}{name}" not in arrays:
-                    continue  # a map written before them: zeros (bin centres)
-                members[name] = np.asarray(arrays[f"{prefix}{name}"])
-        except KeyError as exc:
-            raise MapCorruptError(f"map state is missing the entry array {exc}") from exc
-        adopted = adopt and n >= 64 and len(members) == len(cls._array_names())
-        store = cls.empty(bins, capacity=1)  # each array's dtype and row shape
-        for name, src in members.items():
-            dst = getattr(store, name)
-            if src.shape != (n, *dst.shape[1:]):
-                raise MapCorruptError(
-                    f"entry array {name} has shape {src.shape}, expected {(n, *dst.shape[1:])}"
-                )
-            adopted = adopted and _adoptable(src, dst.dtype)
-        if not adopted:
-            store = cls.empty(bins, capacity=max(n, 64))
-        for name, src in members.items():
-            if adopted:
-                setattr(store, name, src)
-            else:
-                getattr(store, name)[:n] = src.astype(getattr(store, name).dtype, copy=False)
-        if adopted:
-            store.window_mark = np.zeros(n, bool)
-        if np.any((store.kind[:n] != CELL) & (store.kind[:n] != NODE)):
-            raise MapCorruptError("map state has entries of unknown kind")
-        store.n = n
-        # every row's open-window total, from the arrays' first n rows as they lie (the
-        # values of window_totals(arange(n)), without its gathered copy of every row)
-        totals = store.window_counts[:n].sum(axis=1) + store.window_nodir[:n]
-        store.window_mark[:n] = totals != 0
-        return store
+        from aion_cli.engine.entry_arrays import store_from_arrays
+
+        return store_from_arrays(cls, arrays, bins, prefix, adopt)
 
     @staticmethod
     def _array_names() -> tuple[str, ...]:
         return ("kind", "key", "node_id", "xyz", *_PER_BIN, *_SCALAR)
-
-
-def _adoptable(src: np.ndarray, dtype: np.dtype[Any]) -> bool:
-    """Whether a member can be a store's array as it is (:meth:`EntryStore.from_arrays`)."""
-    flags = src.flags
-    return bool(
-        src.dtype == dtype and src.dtype.isnative and flags.c_contiguous and flags.writeable
-        and flags.aligned
-    )
