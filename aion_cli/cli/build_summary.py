@@ -40,12 +40,7 @@ def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
     graph = summary["graph"]
     layer = f", layer {graph['layer']}" if graph.get("layer") else ""
     table.add_row("graph", markup_safe(f"{graph['source']}{layer}"))
-    table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
-    table.add_row("hash cells", f"{summary['cells']:,}")
-    table.add_row("bound cells", f"{summary['bound_cells']:,}")
-    table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
-    if summary.get("hours_observed"):
-        table.add_row("hours observed", markup_safe(summary["hours_observed"]))
+    add_map_rows(table, summary)
     table.add_row("time span", span_text(summary["time_span"]["seconds"]))
     table.add_row("observation", markup_safe(summary["observation"]))
     table.add_row("map size", human_size(summary["map_bytes"]))
@@ -70,6 +65,17 @@ def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
         console().print(
             f"[yellow]note:[/yellow] {markup_safe(shown(message))}", soft_wrap=True
         )
+
+
+def add_map_rows(table: Any, summary: dict[str, Any]) -> None:
+    """The map's size rows of a closing table (``aion build``'s and ``aion merge``'s): nodes
+    (with flow), hash cells, bound cells, windows observed and, when known, hours observed."""
+    table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
+    table.add_row("hash cells", f"{summary['cells']:,}")
+    table.add_row("bound cells", f"{summary['bound_cells']:,}")
+    table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
+    if summary.get("hours_observed"):
+        table.add_row("hours observed", markup_safe(summary["hours_observed"]))
 
 
 def print_warnings(summary: dict[str, Any], zone: str = "UTC") -> None:

@@ -104,11 +104,10 @@ def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
     text."""
     from rich.table import Table
 
-    from aion_cli.cli.build_summary import clock_of, span_text
+    from aion_cli.cli.build_summary import add_map_rows, clock_of, span_text
     from aion_cli.cli.console import console, print_table
     from aion_cli.cli.output import human_size, markup_safe
     from aion_cli.engine.time_text import utc_text
-    from aion_cli.number_text import WINDOWS_OBSERVED
 
     table = Table(
         title=f"map {markup_safe(summary['map'])}", show_header=False, title_justify="left"
@@ -126,12 +125,7 @@ def print_summary(summary: dict[str, Any], zone: str = "UTC") -> None:
     table.add_row("graph", markup_safe(summary["graph_source"]))
     table.add_row("logs", f"{summary['logs']:,}")
     table.add_row("detections", f"{summary['detections']:,}")
-    table.add_row("nodes", f"{summary['nodes']:,} ({summary['nodes_with_flow']:,} with flow)")
-    table.add_row("hash cells", f"{summary['cells']:,}")
-    table.add_row("bound cells", f"{summary['bound_cells']:,}")
-    table.add_row(WINDOWS_OBSERVED, f"{summary['windows']:,}")
-    if summary.get("hours_observed"):
-        table.add_row("hours observed", markup_safe(summary["hours_observed"]))
+    add_map_rows(table, summary)
     span, shown = summary["time_span"], clock_of(zone)
     if span["start_ns"] is not None and span["end_ns"] is not None:
         table.add_row("first time", shown(utc_text(span["start_ns"])))
