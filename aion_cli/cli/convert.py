@@ -217,6 +217,7 @@ def command(
     # bad spans fail before reading
     spans = [parse_span(text, zone, "--observed") for text in observed_text]
     start_ns = 0
+    changed: str | None = None
     clock = date_text if layout == "edinburgh" else start_text
     if layout == "edinburgh" and clock is not None and clock.strip().lower() in DAY_WORDS:
         clock = f"{clock} 00:00"  # --date names a day: its midnight ("yesterday" alone is now-1d)
@@ -226,6 +227,11 @@ def command(
             start_ns = parse_time(clock, zone)
         except TimeFormatError as exc:  # name the option, as --observed's errors do
             raise InputError(f"{option} {clock!r}: {exc.message}", hint=exc.hint) from exc
+        from aion_cli.wall_clock import clock_change_note
+
+        # a start a clock change skips or repeats: which instant it was read as (as --time
+        # says), noted once the log is written so that an error stays a failure's one output
+        changed = clock_change_note(clock, zone, start_ns)
     if drop_ids and option_given("msgtype") and msgtype != POSE_ARRAY:
         raise InputError(
             f"--drop-ids writes {POSE_ARRAY}, not {msgtype}", hint="drop --message-type"
@@ -275,6 +281,8 @@ def command(
         note(f"{exc.message}: the log marks {which} only (nobody came)")
     for line in notes:
         note(line)
+    if changed is not None:
+        note(f"{'--date' if layout == 'edinburgh' else '--start'} {changed}")
     mismatch = layout_mismatch(tracks, layout)
     if mismatch is not None:
         warn(mismatch)

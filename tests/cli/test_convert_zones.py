@@ -6,9 +6,15 @@ said so unless --tz was given, and the README's own example built an ATC map in 
 
 from __future__ import annotations
 
+from datetime import datetime
 from pathlib import Path
+from zoneinfo import ZoneInfo
 
+import pytest
+
+from aion_cli.engine.time_text import format_ns
 from aion_cli.errors import path_word
+from aion_cli.timeparse import resolve_zone, to_ns
 from tests.cli.conftest import run, run_json
 
 ATC = "1351038020.0,1,0.0,0.0,1.0,0.0\n1351038021.0,1,1.0,0.0,1.0,0.0\n"
@@ -85,3 +91,42 @@ def test_observed_spans_without_tz_are_said_to_be_read_in_utc(tmp_path: Path) ->
     zoned = run("convert", eth, "--layout", "ucy", "--start", "2026-01-05 12:00",
                 "--tz", "Europe/Nicosia", "-o", tmp_path / "z.mcap")
     assert "read in UTC" not in zoned.stderr
+
+
+@pytest.mark.parametrize(
+    ("layout", "option", "wall", "said"),
+    [  # Berlin's clocks skip 02:00-03:00 on 2026-03-29 and repeat it on 2026-10-25
+        ("thor", "--start", "2026-03-29 02:30", "does not exist in Europe/Berlin"),
+        ("eth", "--start", "2026-10-25 02:30", "happens twice in Europe/Berlin"),
+        ("edinburgh", "--date", "2026-10-25 02:30", "happens twice in Europe/Berlin"),
+    ],
+)
+def test_a_start_a_clock_change_skips_or_repeats_says_the_instant_taken(
+    tmp_path: Path, layout: str, option: str, wall: str, said: str
+) -> None:
+    """``--start`` / ``--date`` in a wall-clock time the zone's clock change skips or repeats
+    was read as ``--time`` reads it (PEP 495's fold=0) without the note ``--time`` gives, so a
+    THÖR run started at "02:30" began at 03:30 summer time in silence. The instant expected is
+    zoneinfo's, and the log starts at it."""
+    rows = {
+        "thor": "0.0,1,0.0,0.0,1.0,0.0\n1.0,1,1.0,0.0,1.0,0.0\n",
+        "eth": "0 1 0.0 0.0\n10 1 0.4 0.0\n",
+        "edinburgh": "TRACK.R1=[[100 100 0];[110 100 9];[120 100 18]];\n",
+    }[layout]
+    src = tmp_path / "tracks.txt"
+    src.write_text(rows)
+    log = tmp_path / "t.mcap"
+    result = run("convert", src, "--layout", layout, option, wall, "--tz", "Europe/Berlin",
+                 "-o", log)
+    assert result.exit_code == 0, result.stderr
+    # PEP 495's fold=0: the offset before the change (a skipped time lands an hour later)
+    instant = to_ns(datetime.fromisoformat(wall).replace(tzinfo=ZoneInfo("Europe/Berlin")))
+    read_as = format_ns(instant, resolve_zone("Europe/Berlin"))
+    assert f"{option} {wall} {said}" in result.stderr
+    assert f"read as {'the first, ' if 'twice' in said else ''}{read_as}" in result.stderr
+    info = run_json("info", log, "--format", "json")
+    assert info["start_ns"] == instant
+    plain = run("convert", src, "--layout", layout, option, "2026-07-01 02:30", "--tz",
+                "Europe/Berlin", "-o", tmp_path / "p.mcap")
+    assert plain.exit_code == 0, plain.stderr
+    assert "clock change" not in plain.stderr
