@@ -296,20 +296,28 @@ def series_notes(
         unseen = _first_unseen_day(manifest, calendar, times_ns, shown)
         if unseen is not None:
             notes.append(unseen)
+    unobserved = unobserved_hours(manifest, times_ns, noun)
+    return notes if unobserved is None else [*notes, unobserved]
+
+
+def unobserved_hours(manifest: Manifest, times_ns: list[int], noun: str = "times") -> str | None:
+    """The note on those of ``times_ns`` whose hour of the day no log of the map observed on
+    any day (their forecast is extrapolated); None when every one's was observed, or the map
+    does not list its observed bins."""
+    calendar = calendar_of(manifest.config, manifest.timezone)
     observed = hour_observed(manifest, times_ns)
     if observed is None or all(observed) or calendar is None:
-        return notes
+        return None
     per_day = calendar.bins_per_day
     missed = sorted({int(b) % per_day for b, seen in
                      zip(calendar.profile_bin(times_ns), observed, strict=True) if not seen})
     n = len(observed) - sum(observed)
-    notes.append(
+    return (
         f"{n} of the {len(observed)} {noun} fall in hours no log observed on any day "
         f"({words.clock_ranges(missed, calendar.bin_s)} {calendar.timezone}; the map observed "
         f"{words.clock_ranges(hours_of(manifest, per_day), calendar.bin_s)}): their forecast is "
         f"extrapolated from the hours observed, not measured: {STATIC_THERE}"
     )
-    return notes
 
 
 def _far_end(manifest: Manifest, times_ns: list[int], when: int, noun: str) -> str | None:

@@ -165,8 +165,23 @@ def score_held_out(
     if apart is not None:
         result.warnings.append(apart)
     say("forecasting the test logs' hourly activity")
-    _activity(result, state, held)
+    hours = _activity(result, state, held)
+    unobserved = _unobserved_hours(loaded.manifest, hours)
+    if unobserved is not None:
+        result.notes.append(unobserved)
     return result
+
+
+def _unobserved_hours(manifest: dict[str, Any], hours: list[int]) -> str | None:
+    """:func:`aion_cli.forecast_notes.unobserved_hours` of the test's hours (their starts,
+    UNIX ns): those whose hour of the day the map never observed, where aion's forecast (and
+    its hour-of-day profile) is extrapolated, not measured."""
+    if not manifest or not hours:
+        return None
+    from aion_cli.forecast_notes import unobserved_hours
+    from aion_cli.manifest import Manifest
+
+    return unobserved_hours(Manifest.from_dict({"state": {}, **manifest}), hours, "test hours")
 
 
 def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
@@ -266,10 +281,11 @@ def _uniform(held: HeldOut) -> dict[str, Any]:
             "nll_matched": nll, "nll_all": nll, "chi_square": math.nan}
 
 
-def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
+def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> list[int]:
     """Detections per hour over the observed windows against each model's forecast, summed
     over every place in a fixed sensor's windows and over the places within the robot's
-    range in a robot's (``HeldOut.seen``)."""
+    range in a robot's (``HeldOut.seen``); the hours' starts (UNIX ns; none without a
+    window observed)."""
     known = held.fixed | np.isin(held.windows, np.fromiter(held.seen, np.int64, len(held.seen)))
     windows, fixed = held.windows[known], held.fixed[known]
     recorded = None if held.fixed_share is None else held.fixed_share[known]
@@ -278,7 +294,7 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
             "no test window was observed by a fixed sensor or a robot whose range the map "
             "could follow: the hourly activity needs one (see aion build --observed)"
         )
-        return
+        return []
     w_ns = state.window_ns
     detected = held.batch.t_ns // w_ns
     at = np.searchsorted(windows, detected)
@@ -315,6 +331,7 @@ def _activity(result: HoldoutResult, state: MapState, held: HeldOut) -> None:
         state, rows, held.batch.xyz, detection_window, (place, window, windows.size),
         (expected, variance), (starts, state.params.calendar.local_ns(starts)),
     )
+    return [int(h) for h in hours.tolist()]
 
 
 def _no_place_observed(

@@ -57,3 +57,23 @@ def test_the_warning_names_its_times_in_the_maps_zone(corridor: tuple, tmp_path:
                 "--tz", "Europe/Berlin")  # fmt: skip
     assert built.exit_code == 0, built.stderr
     assert f"warning: {said}" in built.stderr.replace("\n", " ")
+
+
+def test_test_hours_the_map_never_observed_are_named(corridor: tuple) -> None:
+    """The map observed 08:00-18:00 on each of its days; a test day declared observed
+    06:00-20:00 adds four hours whose hour of the day no log of the map observed (06-08 and
+    18-20), where aion's forecast is extrapolated: the evaluation scored them without a word,
+    where ``aion predict`` at such an hour says so. The note counts them; the test day as
+    observed (08:00-18:00) gets none."""
+    site, _train, test, _truth = corridor
+    doc = run_json("evaluate", "holdout", site, test, "--format", "json",
+                   "--observed", "2026-01-11T06:00..2026-01-11T20:00")  # fmt: skip
+    assert len(doc["hours"]) == 14
+    (said,) = [n for n in doc["notes"] if "no log observed" in n]
+    assert said.startswith(
+        "4 of the 14 test hours fall in hours no log observed on any day (06:00-08:00, "
+        "18:00-20:00 UTC; the map observed 08:00-18:00): their forecast is extrapolated"
+    )
+    plain = run_json("evaluate", "holdout", site, test, "--format", "json")
+    assert len(plain["hours"]) == 10
+    assert not [n for n in plain["notes"] if "no log observed" in n]
