@@ -73,8 +73,10 @@ def plan(
         return replace(made, notes=tuple(self._notes(time, zone, t_ns, None, "departures")))
 
     from aion_cli.api_results import alike_note, departure_rows
+    from aion_cli.api_words import api_text
     from aion_cli.prediction_series import series_times
     from aion_cli.time_steps import parse_step
+    from aion_cli.wall_clock import wall_clock_note
 
     every = parse_step(check.step("10m" if step is None else step), "step")
     first, last = check.pair(leave, "leave", "earliest, latest")
@@ -95,7 +97,11 @@ def plan(
     made = Plan.from_routes(plans[best], zone, snapped, observed[best])
     rows = departure_rows(plans, best, zone, observed)
     alike = [n for n in (alike_note(rows),) if n is not None]  # as plan --leave says
-    notes = (*self._notes(None, zone, times[best], times, "departures"), *alike)
+    # the earliest departure, typed as a wall-clock time a clock change skips or repeats: the
+    # instant taken, as plan --leave (and predict_series' start) say it
+    changed = wall_clock_note(first, zone, times[0])
+    typed = () if changed is None else (api_text(changed),)
+    notes = (*typed, *self._notes(None, zone, times[best], times, "departures"), *alike)
     return replace(made, departures=rows, notes=notes)
 
 

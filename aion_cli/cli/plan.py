@@ -148,7 +148,11 @@ def command(
     from aion_cli.api_results import alike_note, departure_rows
     from aion_cli.cli.common import load
     from aion_cli.cli.console import note, progress
-    from aion_cli.cli.plan_departures import departure_times, print_departures
+    from aion_cli.cli.plan_departures import (
+        departure_times,
+        leave_clock_note,
+        print_departures,
+    )
     from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
     from aion_cli.predictions import hour_flags
@@ -210,6 +214,10 @@ def command(
         t_ns, zone, "departure" if departures is None else "best departure", loaded, leaving,
         "departures", text=time_text if departures is None and time_given else None,
     )
+    if leave is not None and leaving:  # the start typed, read across a clock change
+        changed = leave_clock_note(leave, zone, leaving[0])
+        if changed is not None:
+            note(changed)
     alike = None if departures is None else alike_note(departures)
     if alike is not None:  # "best" would read as quieter
         note(alike)

@@ -19,8 +19,9 @@ import pytest
 
 import aion_cli as aion
 from aion_cli.api import Map
+from aion_cli.engine.time_text import format_ns
 from aion_cli.time_steps import Step, parse_step
-from aion_cli.timeparse import TimeFormatError
+from aion_cli.timeparse import TimeFormatError, resolve_zone, to_ns
 from tests.cli.conftest import Office, run, run_json
 from tests.engine.temporal_data import DAY, HOUR, corridor
 
@@ -329,3 +330,35 @@ def test_a_naive_datetime_start_in_a_skipped_hour_keeps_its_time_as_a_string_doe
         step="1d",
     )
     assert [row["depart_ns"] for row in plan.departures] == expected
+
+
+def test_plan_leave_from_a_skipped_or_repeated_time_says_the_instant_taken(
+    office: Office,
+) -> None:
+    """``plan --leave`` from a wall-clock time Berlin's clock change skips or repeats was read
+    as ``--time`` reads it (the first departure at 03:30 summer time for "02:30" on 03-29)
+    without the note that ``--time`` and ``predict --from`` give (nor had ``Map.plan(leave=)``
+    the note ``Map.predict_series`` has); the first departure and the instant named are
+    zoneinfo's."""
+    berlin = ZoneInfo(BERLIN)
+    for wall, said in (("2026-03-29 02:30", "does not exist"),
+                       ("2026-10-25 02:30", "happens twice")):
+        result = run("plan", office.map, "--from", "p0", "--to", "p4", "--tz", BERLIN,
+                     "--leave", f"{wall}..{wall[:11]}04:00", "--step", "30m")
+        assert result.exit_code == 0, result.stderr
+        first = to_ns(datetime.fromisoformat(wall).replace(tzinfo=berlin))  # fold=0
+        read_as = format_ns(first, resolve_zone(BERLIN))
+        assert f"--leave {wall} {said} in {BERLIN} (a clock change " in result.stderr
+        assert f"read as {'the first, ' if 'twice' in said else ''}{read_as}" in result.stderr
+        doc = run_json("plan", office.map, "--from", "p0", "--to", "p4", "--tz", BERLIN,
+                       "--leave", f"{wall}..{wall[:11]}04:00", "--step", "30m",
+                       "--format", "json")
+        assert doc["departures"][0]["depart_ns"] == first
+        api = aion.Map.load(office.map).plan("p0", "p4", tz=BERLIN, step="30m",
+                                             leave=(wall, f"{wall[:11]}04:00"))
+        assert api.departures[0]["depart_ns"] == first
+        assert api.notes[0].startswith(f"{wall} {said} in {BERLIN} (a clock change ")
+    plain = run("plan", office.map, "--from", "p0", "--to", "p4", "--tz", BERLIN,
+                "--leave", "2026-07-01 02:30..2026-07-01 04:00", "--step", "30m")
+    assert plain.exit_code == 0, plain.stderr
+    assert "clock change" not in plain.stderr
