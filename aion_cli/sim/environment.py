@@ -210,7 +210,11 @@ def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = Non
     place_room = np.asarray(places.parent, dtype=np.uint64)[keep]
     clearance = loaded.nav.clearance
     room_ids, room_xyz, labels, building = _rooms_of(snap, place_room)
-    notes = tuple(loaded.notes()) + _rooms_left_out(path, snap, layer)
+    notes = (
+        tuple(loaded.notes())
+        + _rooms_left_out(path, snap, layer)
+        + _apart(path, np.asarray(places.parent, dtype=np.uint64), keep)
+    )
     return Environment(
         name=path.name,
         place_ids=np.asarray(places.ids, dtype=np.uint64)[keep],
@@ -225,6 +229,23 @@ def load_graph_environment(path: Path, n_desks: int, nav_layer: str | None = Non
         roles=roles_for_graph(xyz, n_desks),
         layer=str(layer),
         notes=notes,
+    )
+
+
+def _apart(path: Path, parent: U64, keep: I64) -> tuple[str, ...]:
+    """The note for places apart from the largest connected part of the place edges, which
+    people cannot walk to and the simulation leaves out, and for the rooms that held only
+    such places (a house of five rooms simulated with two, without a word)."""
+    if len(keep) == len(parent):
+        return ()
+    rooms = np.unique(parent[parent != 0])
+    kept = np.unique(parent[keep][parent[keep] != 0])
+    gone = len(rooms) - len(kept)
+    return (
+        f"{path.name}: {len(parent) - len(keep):,} of its {len(parent):,} places lie apart "
+        "from the largest connected part of the place edges, where people walk: left out"
+        + (f", and so {'is' if gone == 1 else 'are'} {gone:,} of its {len(rooms):,} rooms "
+           f"({'it holds' if gone == 1 else 'they hold'} only such places)" if gone else ""),
     )
 
 
