@@ -352,7 +352,8 @@ def command(
     )
     with _RichProgress(fmt == "json") as progress:
         report = build_map(options, progress)
-    report.notes[:0] = zone_notes
+    report.notes[:0] = [*zone_notes, *observed_notes(observed_text, observed, zone_name,
+                                                     continue_from)]
     report.warnings[:0] = zone_warnings
     summary = report.to_dict()
     from aion_cli.cli.build_summary import print_summary, print_warnings
@@ -362,6 +363,24 @@ def command(
         print_warnings(summary, report.timezone)  # on stderr: stdout stays one JSON document
     else:  # with -q (quiet_option) only its warnings show
         print_summary(summary, report.timezone)
+
+
+def observed_notes(
+    texts: tuple[str, ...],
+    spans: tuple[tuple[int, int], ...],
+    timezone: str | None,
+    continue_from: Path | None,
+) -> list[str]:
+    """The notes on the ``--observed`` spans (as :func:`observed_spans` read them) whose start
+    a clock change of their zone skips or repeats (:func:`cli.common.span_start_notes`)."""
+    if not texts:
+        return []
+    from aion_cli.cli.common import span_start_notes
+    from aion_cli.log_zone import continued_zone
+    from aion_cli.timeparse import resolve_zone
+
+    zone_name = timezone if timezone is not None else continued_zone(continue_from)
+    return span_start_notes(texts, spans, resolve_zone(zone_name or "UTC"), "--observed")
 
 
 def observed_spans(

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -281,6 +281,22 @@ def parse_span(text: str, zone: Zone, option: str, instant: bool = False) -> tup
                "takes it, as the one departure T)" if empty and not instant else ""),
         )  # fmt: skip
     return start, end
+
+
+def span_start_notes(texts: Sequence[str], spans: Sequence[tuple[int, int]], zone: Zone,
+                     option: str) -> list[str]:
+    """A note per ``START..END`` of ``option`` (``--observed``, ``--leave``; ``spans``: as
+    :func:`parse_span` read them in ``zone``) whose start is a wall-clock time that a clock
+    change skips or repeats, naming the instant it was read as
+    (:func:`aion_cli.wall_clock.clock_change_note`), as ``--time`` and ``--from`` say it."""
+    from aion_cli.wall_clock import clock_change_note
+
+    notes = []
+    for text, (start, _end) in zip(texts, spans, strict=True):
+        changed = clock_change_note(text.split("..")[0], zone, start)
+        if changed is not None:
+            notes.append(f"{option} {changed}")
+    return notes
 
 
 def _frame_name(value: str | None, option: str, example: str) -> str | None:

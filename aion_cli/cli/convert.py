@@ -7,7 +7,7 @@ from typing import Any
 
 import click
 
-from aion_cli.cli.common import AionPath, parse_span, quiet_option
+from aion_cli.cli.common import AionPath, parse_span, quiet_option, span_start_notes
 from aion_cli.cli.convert_checks import (
     FRAME_LAYOUTS,
     RELATIVE_LAYOUTS,
@@ -283,6 +283,8 @@ def command(
         note(line)
     if changed is not None:
         note(f"{'--date' if layout == 'edinburgh' else '--start'} {changed}")
+    for line in span_start_notes(observed_text, spans, zone, "--observed"):
+        note(line)
     mismatch = layout_mismatch(tracks, layout)
     if mismatch is not None:
         warn(mismatch)

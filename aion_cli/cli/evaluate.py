@@ -288,7 +288,7 @@ def holdout(
     docs/EVALUATION.md), notes, warnings (null where a figure has no value: the table's -).
     """
     from aion_cli.build_options import BuildOptions, map_frame_of
-    from aion_cli.cli.build import observed_spans
+    from aion_cli.cli.build import observed_notes, observed_spans
     from aion_cli.cli.console import note, warn
     from aion_cli.evaluation.holdout import run_holdout
     from aion_cli.evaluation.spread import spread_note
@@ -305,6 +305,8 @@ def holdout(
                         # as typed: a span apart from the test logs is warned of, as by build
                         observed_typed=tuple(zip(observed, spans, strict=True)))
     result = run_holdout(map_path, opts, radius, progress=note)
+    for said in observed_notes(observed, spans, None, map_path):  # read across a clock change
+        note(said)
     for line in (*result.notes, spread_note(result.spread)):
         if line is not None:
             note(line)

@@ -146,13 +146,9 @@ def command(
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
     from aion_cli.api import Plan
     from aion_cli.api_results import alike_note, departure_rows
-    from aion_cli.cli.common import load
+    from aion_cli.cli.common import load, span_start_notes
     from aion_cli.cli.console import note, progress
-    from aion_cli.cli.plan_departures import (
-        departure_times,
-        leave_clock_note,
-        print_departures,
-    )
+    from aion_cli.cli.plan_departures import departure_times, print_departures
     from aion_cli.errors import InputError
     from aion_cli.mapquery import nav_graph
     from aion_cli.predictions import hour_flags
@@ -215,9 +211,8 @@ def command(
         "departures", text=time_text if departures is None and time_given else None,
     )
     if leave is not None and leaving:  # the start typed, read across a clock change
-        changed = leave_clock_note(leave, zone, leaving[0])
-        if changed is not None:
-            note(changed)
+        for line in span_start_notes([leave], [(leaving[0], leaving[-1])], zone, "--leave"):
+            note(line)
     alike = None if departures is None else alike_note(departures)
     if alike is not None:  # "best" would read as quieter
         note(alike)

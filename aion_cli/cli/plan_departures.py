@@ -25,16 +25,6 @@ def departure_times(text: str, step: str, zone: Zone) -> list[int]:
     return series_times(start, end, parse_step(step), zone, noun="departures", typed=typed)
 
 
-def leave_clock_note(text: str, zone: Zone, first_ns: int) -> str | None:
-    """The note on ``--leave``'s start where a clock change skips or repeats it: which instant
-    the first departure was read as (:func:`aion_cli.wall_clock.clock_change_note`), as
-    ``--time`` and ``predict --from`` say it; None otherwise."""
-    from aion_cli.wall_clock import clock_change_note
-
-    changed = clock_change_note(text.split("..")[0], zone, first_ns)
-    return None if changed is None else f"--leave {changed}"
-
-
 def print_departures(rows: list[dict[str, Any]], zone: Zone) -> None:
     """The departures as a table (stdout), the best one marked, and those at an hour no day
     observed (their flows extrapolated)."""

@@ -17,7 +17,7 @@ from aion_cli.api import Map
 from aion_cli.engine.time_text import format_ns
 from aion_cli.timeparse import parse_time, resolve_zone, to_ns
 from aion_cli.wall_clock import clock_change_note
-from tests.cli.conftest import run
+from tests.cli.conftest import run, run_json
 from tests.engine.temporal_data import corridor
 
 NOW = datetime(2026, 6, 1, 12, 0, tzinfo=UTC)
@@ -147,3 +147,37 @@ def test_a_repeated_datetime64_is_not_told_to_use_a_fold_it_lacks() -> None:
         "names it)"
     )
     assert m.predict(datetime(2026, 10, 25, 2, 30, fold=1), top=1).time_ns == to_ns(second)
+
+
+def test_an_observed_start_a_clock_change_skips_says_the_instant_taken(tmp_path: Path) -> None:
+    """``--observed "2026-03-29 02:30..05:00"`` in Europe/Berlin starts at a time the spring
+    change skips: convert, build and evaluate holdout read it as --time does (03:30 summer
+    time) without the note --time gives. Each says it now; the span the log records starts
+    at zoneinfo's instant, and a span from 04:00 gets no note."""
+    src = tmp_path / "thor.csv"
+    src.write_text("0.0,1,0.0,0.0,1.0,0.0\n1.0,1,1.0,0.0,1.0,0.0\n")
+    zone = resolve_zone("Europe/Berlin")
+    instant = to_ns(datetime(2026, 3, 29, 2, 30, tzinfo=ZoneInfo("Europe/Berlin")))  # fold=0
+    said = (
+        "--observed 2026-03-29 02:30 does not exist in Europe/Berlin (a clock change skips "
+        f"it): read as {format_ns(instant, zone)}"
+    )
+    span = "2026-03-29 02:30..2026-03-29 05:00"
+    log = tmp_path / "t.mcap"
+    converted = run("convert", src, "--layout", "thor", "--start", "2026-03-29 04:00",
+                    "--tz", "Europe/Berlin", "--observed", span, "-o", log)
+    assert converted.exit_code == 0, converted.stderr
+    assert said in converted.stderr
+    info = run_json("info", log, "--format", "json")
+    (spans,) = info["observed_spans"].values()
+    assert spans[0]["start_ns"] == instant
+    built = run_json("build", log, "-o", tmp_path / "t.aion", "--observed", span,
+                     "--format", "json", "-q")
+    assert [n for n in built["notes"] if n.startswith(said)]
+    held = run("evaluate", "holdout", tmp_path / "t.aion", log, "--observed", span)
+    assert held.exit_code == 0, held.stderr
+    assert said in held.stderr
+    plain = run("build", log, "-o", tmp_path / "p.aion", "--observed",
+                "2026-03-29 04:00..2026-03-29 05:00")
+    assert plain.exit_code == 0, plain.stderr
+    assert "clock change" not in plain.stderr
