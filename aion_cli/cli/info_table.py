@@ -236,12 +236,19 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
             "the share they cover) unless --observed is given",
             soft_wrap=True,
         )
+    by_zone: dict[str, list[str]] = {}  # one note per zone, not one per log that declares it
     for path, declared in (report.get("declared_zones") or {}).items():
-        which = "its time zone (aion simulate or convert --tz), the one of the times here" \
-            if declared == zone else \
+        by_zone.setdefault(declared, []).append(safe(Path(path).name))
+    for declared, logs in by_zone.items():
+        many = len(logs) > 1
+        who = logs[0] if not many else ", ".join(logs[: min(3, len(logs) - 1)]) + (
+            f" and {logs[-1]}" if len(logs) <= 4 else f" and {len(logs) - 3:,} other logs"
+        )
+        which = f"{'their' if many else 'its'} time zone (aion simulate or convert --tz), the " \
+            "one of the times here" if declared == zone else \
             f"the time zone {safe(declared)} (aion simulate or convert --tz)"
         console().print(
-            f"[yellow]note:[/yellow] {safe(Path(path).name)} declares {which}: `aion build` "
+            f"[yellow]note:[/yellow] {who} declare{'' if many else 's'} {which}: `aion build` "
             "follows it unless --tz is given",
             soft_wrap=True,
         )

@@ -59,3 +59,32 @@ def test_a_fixed_sensors_hours_are_in_the_zone_the_log_declares(tmp_path: Path) 
     assert "weekdays 07:00-08:00; weekends none " in shown  # the zone: named by the time span
     # the time span's, the created row's (458587a5) and the config row's timezone
     assert shown.count("Europe/Berlin") == 3
+
+
+def test_logs_that_declare_one_zone_get_one_note(tmp_path: Path) -> None:
+    """``aion info`` of several logs converted with one ``--tz`` repeated the same note once
+    per log (five Lincoln days: five lines alike); the logs that declare one zone share a
+    note now, and a log of another zone has its own."""
+    logs = []
+    zones = ("Europe/Berlin", "Europe/Berlin", "Asia/Tokyo")
+    for hour, (name, tz) in enumerate(zip("abc", zones, strict=True)):  # an hour apart
+        csv = tmp_path / f"{name}.csv"
+        csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n"
+                       f"{1774594800 + 3600 * hour}000000000,1,0.0,0.0,0.0,0.0,1.0\n")
+        logs.append(tmp_path / f"{name}.mcap")
+        converted = run("convert", csv, "-o", logs[-1], "--tz", tz, "-q")
+        assert converted.exit_code == 0, converted.stderr
+    both = run("info", logs[0], logs[1])
+    assert both.exit_code == 0, both.stderr
+    said = [line for line in both.stderr.splitlines() if " declare" in line]
+    assert said == ["note: a.mcap and b.mcap declare their time zone (aion simulate or convert "
+                    "--tz), the one of the times here: `aion build` follows it unless --tz is "
+                    "given"]
+    three = run("info", *logs, "--tz", "UTC")
+    said = [line for line in three.stderr.splitlines() if " declare" in line]
+    assert said == [
+        "note: a.mcap and b.mcap declare the time zone Europe/Berlin (aion simulate or convert "
+        "--tz): `aion build` follows it unless --tz is given",
+        "note: c.mcap declares the time zone Asia/Tokyo (aion simulate or convert --tz): "
+        "`aion build` follows it unless --tz is given",
+    ]
