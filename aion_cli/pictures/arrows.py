@@ -65,6 +65,27 @@ MIN_ARROW_CELLS = 2.0
 cell (0.5 m) over a house's places 0.3 m apart, the busiest arrows were heads without shafts
 and the rest dots."""
 
+HEAD_LENGTH = 4.0
+"""An arrow's head is this many shaft widths long (3.5 wide), ..."""
+HEAD_SHARE = 1.0 / 3.0
+"""...but at most this share of the arrow: an arrow shorter than ``HEAD_LENGTH / HEAD_SHARE``
+shaft widths is drawn as a smaller copy of one that long (head, shaft and width scaled alike,
+matplotlib's ``minshaft``). At matplotlib's one head length, a merged map's arrows (a block
+of about 15 pixels, the shafts 3 pixels wide) were all head, a field of triangles that did not
+read as flow."""
+
+
+def head_style() -> dict[str, float]:
+    """The quiver's head parameters (shaft widths; :data:`HEAD_LENGTH`, :data:`HEAD_SHARE`),
+    for ``Axes.quiver``."""
+    return {
+        "headwidth": 3.5,
+        "headlength": HEAD_LENGTH,
+        "headaxislength": 0.875 * HEAD_LENGTH,
+        "minshaft": 1.0 / HEAD_SHARE,
+    }
+
+
 NO_ARROWS = "no arrows: no place or cell has flow with a direction here"
 """The legend of a picture in which nothing flows (in any panel of a series)."""
 

@@ -15,7 +15,7 @@ import numpy.typing as npt
 
 from aion_cli.formats.outputs import plain_text
 from aion_cli.formats.scene_colours import busy_fraction, flow_colors
-from aion_cli.pictures.arrows import ArrowField, arrow_field, arrow_scale, spaced
+from aion_cli.pictures.arrows import ArrowField, arrow_field, arrow_scale, head_style, spaced
 from aion_cli.pictures.backdrop import (
     Color,
     Extent,
@@ -174,9 +174,7 @@ def draw_topdown(
             # fraction of its width was a shaft under a pixel, arrows nobody could see
             units="width" if box.aspect <= 1.0 else "height",
             width=arrow_width,
-            headwidth=3.5,
-            headlength=4.0,
-            headaxislength=3.5,
+            **head_style(),  # the head at most a third of the arrow (.arrows)
             pivot="tail",
             zorder=6,
         )
