@@ -66,22 +66,28 @@ cell (0.5 m) over a house's places 0.3 m apart, the busiest arrows were heads wi
 and the rest dots."""
 
 HEAD_LENGTH = 4.0
-"""An arrow's head is this many shaft widths long (3.5 wide), ..."""
+"""An arrow's head is this many shaft widths long (3.5 wide) where the arrows are long..."""
 HEAD_SHARE = 1.0 / 3.0
-"""...but at most this share of the arrow: an arrow shorter than ``HEAD_LENGTH / HEAD_SHARE``
-shaft widths is drawn as a smaller copy of one that long (head, shaft and width scaled alike,
-matplotlib's ``minshaft``). At matplotlib's one head length, a merged map's arrows (a block
-of about 15 pixels, the shafts 3 pixels wide) were all head, a field of triangles that did not
-read as flow."""
+"""...but at most this share of the arrow. The busiest arrows of a picture drawn under
+``HEAD_LENGTH / HEAD_SHARE`` shaft widths long get a head a third of them (at least
+:data:`LEAST_HEAD` widths long, :data:`LEAST_HEAD_WIDTH` wide), and an arrow shorter than
+three heads is drawn as a smaller copy of one that long (head, shaft and width scaled alike,
+matplotlib's ``minshaft``). At matplotlib's one head length of four widths, a merged map's
+arrows (a block of about 15 pixels, the shafts 3 pixels wide) were all head, a field of
+triangles that did not read as flow."""
+LEAST_HEAD = 1.5
+LEAST_HEAD_WIDTH = 2.5
 
 
-def head_style() -> dict[str, float]:
-    """The quiver's head parameters (shaft widths; :data:`HEAD_LENGTH`, :data:`HEAD_SHARE`),
-    for ``Axes.quiver``."""
+def head_style(full_widths: float) -> dict[str, float]:
+    """The quiver's head parameters (shaft widths) for a picture whose arrows at full flow are
+    ``full_widths`` shaft widths long (:data:`HEAD_LENGTH`, :data:`HEAD_SHARE`), for
+    ``Axes.quiver``."""
+    head = float(np.clip(HEAD_SHARE * full_widths, LEAST_HEAD, HEAD_LENGTH))
     return {
-        "headwidth": 3.5,
-        "headlength": HEAD_LENGTH,
-        "headaxislength": 0.875 * HEAD_LENGTH,
+        "headwidth": max(0.875 * head, LEAST_HEAD_WIDTH),
+        "headlength": head,
+        "headaxislength": 0.875 * head,
         "minshaft": 1.0 / HEAD_SHARE,
     }
 

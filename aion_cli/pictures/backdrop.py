@@ -64,6 +64,11 @@ class Extent:
         """Height over width."""
         return (self.y1 - self.y0) / (self.x1 - self.x0)
 
+    @property
+    def long_side(self) -> float:
+        """The longer of its width and height (m)."""
+        return max(self.x1 - self.x0, self.y1 - self.y0)
+
     def caption(self) -> str:
         """What the window leaves out, for the picture's legend ("" when nothing)."""
         if not self.left_out:
@@ -338,6 +343,9 @@ class RoomOutlines:
     hulls: tuple[F64, ...]
     label_xy: F64
     labels: tuple[str, ...]
+    label_places: tuple[int, ...] = ()
+    """How many places each labelled room has (the larger keep their labels first,
+    :mod:`.room_labels`)."""
 
 
 def room_outlines(scene: Scene) -> RoomOutlines:
@@ -352,6 +360,7 @@ def room_outlines(scene: Scene) -> RoomOutlines:
     hulls: list[F64] = []
     label_xy: list[F64] = []
     labels: list[str] = []
+    sizes: list[int] = []
     for r in range(n_rooms):  # one hull per room: rooms are few
         xy = scene.places_xyz[order[bounds[r] : bounds[r + 1]], :2]
         hull = _padded_hull(xy, scene.cell_size)
@@ -362,8 +371,9 @@ def room_outlines(scene: Scene) -> RoomOutlines:
             name = scene.room_labels[r] if r < len(scene.room_labels) else ""
             label_xy.append(centre)
             labels.append(name or node_label(int(scene.room_ids[r])))
+            sizes.append(len(xy))
     xy_all = np.asarray(label_xy, dtype=np.float64).reshape(-1, 2)
-    return RoomOutlines(tuple(hulls), xy_all, tuple(labels))
+    return RoomOutlines(tuple(hulls), xy_all, tuple(labels), tuple(sizes))
 
 
 def _draw_rooms(ax: Any, rooms: RoomOutlines, label_size: float) -> None:

@@ -70,6 +70,21 @@ def wrapped(lines: Iterable[str], width_in: float, points: float) -> str:
     return "\n".join(textwrap.fill(part, chars) if part else part for part in parts)
 
 
+def shortened(name: str, width: int) -> str:
+    """``name`` on one line (runs of white space as one space), cut to ``width`` characters
+    with a closing "…" when longer: at its last space past the middle, else within its last
+    word (``textwrap.shorten`` keeps whole words only, and made a name without a space
+    within the width a bare "…")."""
+    text = " ".join(name.split())
+    if len(text) <= width:
+        return text
+    cut = text[: width - 1]
+    space = cut.rfind(" ")
+    if space >= width // 2:
+        cut = cut[:space]
+    return cut.rstrip() + "…"
+
+
 SETTLE_ROUNDS = 4
 """The most times :func:`settle` runs a figure's layout."""
 

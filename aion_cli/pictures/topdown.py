@@ -81,6 +81,13 @@ from aion_cli.pictures.floors import by_level, levels_apart
 from aion_cli.pictures.graph_ink import graph_ink
 from aion_cli.pictures.layout import PANEL_WIDTH_IN, SINGLE_WIDTH_IN, wrapped
 from aion_cli.pictures.layout import grid as page_grid
+from aion_cli.pictures.room_labels import (
+    ROOM_LABEL_POINTS,
+    FittedLabels,
+    fit_labels,
+    label_note,
+    map_per_inch,
+)
 from aion_cli.pictures.topdown_panel import (
     ARROW_WIDTH,
     PANEL_ARROW_WIDTH,
@@ -181,6 +188,7 @@ def topdown_figure(
         sharex=True, sharey=True, squeeze=False
     )
     shared: tuple[Scene, Footprint | None, RoomOutlines] | None = None
+    fitted: list[FittedLabels] = []  # the room labels that fit, each geometry's
     used = []
     for i, ax in enumerate(grid.flat):
         if i >= n:
@@ -188,7 +196,9 @@ def topdown_figure(
             continue
         if shared is None or not _same_geometry(shared[0], scenes[i]):
             footprint = mesh_footprint(scenes[i], extent, round(width * dpi), ink, dpi)
-            shared = (scenes[i], footprint, room_outlines(scenes[i]))
+            per_inch = map_per_inch(extent.x1 - extent.x0, extent.y1 - extent.y0, (width, height))
+            fitted.append(fit_labels(room_outlines(scenes[i]), ROOM_LABEL_POINTS, per_inch))
+            shared = (scenes[i], footprint, fitted[-1].rooms)
         draw_topdown(
             ax,
             scenes[i],
@@ -201,7 +211,7 @@ def topdown_figure(
             title=titles[i],
             arrow_width=ARROW_WIDTH if n == 1 else PANEL_ARROW_WIDTH,
             dot_size=12.0 if n == 1 else 5.0,
-            label_size=7.0 if n == 1 else 5.5,
+            label_size=ROOM_LABEL_POINTS,  # readable in a series too (.room_labels)
             arrows=fields[i],
             graph=ink,
             frame=frame,
@@ -259,6 +269,7 @@ def topdown_figure(
     if suptitle:  # it may hold a file name: UTF-8 text whatever its bytes, its $ not maths
         fig.suptitle(plain_text(wrapped([suptitle], fig.get_figwidth(), 12)), fontsize=12)
     keys = legend_lines(arrows.legend(scenes[0].window_s), fields, scenes)
+    keys += [label_note(f) for f in fitted[:1]]
     caption = wrapped([*keys, extent.caption()], fig.get_figwidth(), 7)
     fig.supxlabel(caption, fontsize=7, color=LABEL_GREY)
     return fig

@@ -174,7 +174,8 @@ def draw_topdown(
             # fraction of its width was a shaft under a pixel, arrows nobody could see
             units="width" if box.aspect <= 1.0 else "height",
             width=arrow_width,
-            **head_style(),  # the head at most a third of the arrow (.arrows)
+            # the head at most a third of the arrow (.arrows), from the longest's shaft widths
+            **head_style(field.full_length(scene.cell_size) / (arrow_width * box.long_side)),
             pivot="tail",
             zorder=6,
         )

@@ -23,6 +23,7 @@ import numpy as np
 
 from aion_cli.engine.time_text import Zone, from_ns
 from aion_cli.formats.scene_colours import NO_HEADING_TEAL
+from aion_cli.pictures.layout import shortened  # a room name cut to a width (also the maps')
 from aion_cli.report.content import Busiest, Observed, Series, local_midnight
 
 DPI = 110
@@ -150,21 +151,6 @@ def _days_panel(ax: Any, observed: Observed, zone: Zone) -> None:
         fontsize=10,
     )
     ax.grid(axis="x", color="#dddddd", linewidth=0.6)
-
-
-def shortened(name: str, width: int) -> str:
-    """``name`` on one line (runs of white space as one space), cut to ``width`` characters
-    with a closing "…" when longer: at its last space past the middle, else within its last
-    word (``textwrap.shorten`` keeps whole words only, and made a name without a space
-    within the width a bare "…")."""
-    text = " ".join(name.split())
-    if len(text) <= width:
-        return text
-    cut = text[: width - 1]
-    space = cut.rfind(" ")
-    if space >= width // 2:
-        cut = cut[:space]
-    return cut.rstrip() + "…"
 
 
 def _bars(

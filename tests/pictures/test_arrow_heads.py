@@ -21,9 +21,9 @@ def _grid(step: float, n: int) -> Any:
     return np.column_stack([xs.ravel(), ys.ravel()])
 
 
-def _arrows(scene: Scene) -> tuple[Any, Any, Any]:
+def _arrows(scene: Scene) -> tuple[Any, Any, Any, float]:
     """Each drawn arrow's length and head length (along its direction) and its shaft width,
-    in the quiver's units, and the quiver's shaft width in those units."""
+    and the quiver's shaft width, in the quiver's units (a share of the panel's width)."""
     fig = topdown_figure([scene], ["panel"], dpi=120)
     fig.canvas.draw()
     (ax,) = [a for a in fig.axes if a.get_title() == "panel"]
@@ -38,7 +38,7 @@ def _arrows(scene: Scene) -> tuple[Any, Any, Any]:
         lengths.append(along.max() - along.min())
         heads.append(along.max() - along[widest].mean())
         shafts.append(2.0 * np.abs(across[np.argmin(along)]))  # at the tail
-    return np.array(lengths), np.array(heads), np.array(shafts)
+    return np.array(lengths), np.array(heads), np.array(shafts), float(quiver.width)
 
 
 def test_a_merged_maps_arrows_are_mostly_shaft() -> None:
@@ -47,12 +47,15 @@ def test_a_merged_maps_arrows_are_mostly_shaft() -> None:
     xy = _grid(2.0, 50)
     flows = np.linspace(0.3, 1.0, len(xy))
     angles = np.linspace(-np.pi, np.pi, len(xy))
-    lengths, heads, shafts = _arrows(cells_only_scene(xy, flows, angles))
+    lengths, heads, shafts, width = _arrows(cells_only_scene(xy, flows, angles))
     assert len(lengths) == len(xy)
     assert (heads > 0).all()
     assert (heads <= HEAD_SHARE * lengths + 1e-9).all()
-    # a short arrow is a smaller copy of the whole arrow, its shaft as much thinner
-    assert shafts / lengths == pytest.approx(np.full(len(xy), HEAD_SHARE / HEAD_LENGTH))
+    # the busiest keep the picture's shaft width (a head from their length, not a thin copy
+    # of a long arrow); a shorter arrow is a smaller copy of them, its shaft as much thinner
+    busiest = lengths >= lengths.max() * (1 - 1e-9)
+    assert shafts[busiest] == pytest.approx(np.full(busiest.sum(), width))
+    assert shafts / lengths == pytest.approx(np.full(len(xy), width / lengths.max()))
 
 
 def test_long_arrows_keep_their_head_size() -> None:
@@ -60,7 +63,8 @@ def test_long_arrows_keep_their_head_size() -> None:
     widths long whatever the arrow's length, well under HEAD_SHARE of it."""
     xy = _grid(4.0, 4)
     flows = np.linspace(2.0, 4.0, len(xy))
-    lengths, heads, shafts = _arrows(cells_only_scene(xy, flows))
+    lengths, heads, shafts, width = _arrows(cells_only_scene(xy, flows))
+    assert shafts == pytest.approx(np.full(len(xy), width))
     assert (lengths > HEAD_LENGTH / HEAD_SHARE * shafts).all()
     assert heads == pytest.approx(HEAD_LENGTH * shafts)
     assert (heads < HEAD_SHARE * lengths).all()
