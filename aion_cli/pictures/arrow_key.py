@@ -1,12 +1,13 @@
 """The key of a top-down picture's arrows: one reference arrow of a stated flow
 ("= 4.5 detections per 600-s window"), drawn by matplotlib's ``quiverkey`` from the panel's own
 quiver, so that it is exactly as long as an arrow of that flow in the panel (the caption alone
-gave the scale in words). One key per figure, in the corner of the last panel that covers the
-fewest drawn points (none, where the map leaves a corner empty; where it leaves none, on a
-white ground)."""
+gave the scale in words). One key per figure, in the corner of the last panel with arrows where
+that panel draws nothing; where the map leaves no corner empty, over the panels, in a row of
+its own (a white ground under it in a corner covered the data)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -66,27 +67,45 @@ def key_corner(
     return corners[best][0], corners[best][1], counts[best]
 
 
-def draw_arrow_key(
-    ax: Any,
+@dataclass(frozen=True)
+class KeyPlan:
+    """Where and what the key is, known before the figure is made: the ``panel`` (index)
+    whose quiver it is drawn from, its arrow's ``length`` (m) and ``label``, the lower left
+    (``corner``, axes fraction) and size (``box``) of its place in that panel's emptiest
+    corner, how long the arrow is drawn there (``arrow_share`` of the panel's width), and
+    ``in_margin``: no corner is empty (a map filling its window), so it goes over the panels,
+    in a row of its own (:func:`draw_arrow_key`), not over data."""
+
+    panel: int
+    length: float
+    label: str
+    corner: tuple[float, float]
+    box: tuple[float, float]
+    arrow_share: float
+    in_margin: bool
+
+
+def plan_key(
+    panel: int,
     flow_scale: float,
     full_length: float,
     window_s: float,
     points: F64,
+    limits: tuple[float, float, float, float],
     panel_in: tuple[float, float],
-) -> Any:
-    """Draw the key of the arrows of panel ``ax`` (the quiver it holds; None is returned when
-    it holds none): an arrow of :func:`key_flow` (``full_length`` metres at ``flow_scale``,
-    proportionally shorter below it) and its :func:`key_label`, in the emptiest corner
-    (:func:`key_corner`) of the drawn ``points`` f64[n,2]; ``panel_in``: the panel's width
-    and height (inches), which size the key's box. Returns the ``QuiverKey``."""
-    quivers = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+) -> KeyPlan | None:
+    """The key of the arrows of panel ``panel`` (None without a flow to show): an arrow of
+    :func:`key_flow` (``full_length`` metres at ``flow_scale``, proportionally shorter below
+    it) and its :func:`key_label`, in the corner (:func:`key_corner`) of the window
+    ``limits`` (x0, x1, y0, y1) that holds the fewest of the drawn ``points`` f64[n,2], or
+    in the margin when each holds some; ``panel_in``: the panel's width and height
+    (inches), which size the key's box."""
     flow = key_flow(flow_scale)
-    if not quivers or not flow > 0:
+    if not flow > 0 or not full_length > 0:
         return None
     length = full_length * min(flow / flow_scale, 1.0)
     label = key_label(flow, window_s)
-    x0, x1 = ax.get_xlim()
-    y0, y1 = ax.get_ylim()
+    x0, x1, y0, y1 = limits
     # the panel draws x and y on one scale: the metres per inch of the direction that fills it
     per_inch = max((x1 - x0) / panel_in[0], (y1 - y0) / panel_in[1])
     arrow_in = length / per_inch
@@ -97,31 +116,78 @@ def draw_arrow_key(
     drawn_w = (x1 - x0) / per_inch  # the panel's drawn size (inches)
     drawn_h = (y1 - y0) / per_inch
     box = ((arrow_in + LABEL_SEP_IN + text_in) / drawn_w, high_in / drawn_h)
-    cx, cy, covered = key_corner(points, (x0, x1, y0, y1), box)
-    if covered:  # no corner is empty (a map filling its window): the key on a white ground
-        from matplotlib.patches import Rectangle
+    cx, cy, covered = key_corner(points, limits, box)
+    return KeyPlan(panel, length, label, (cx, cy), box, arrow_in / drawn_w, covered > 0)
 
-        ax.add_patch(Rectangle(
-            (cx - KEY_INSET / 2, cy - KEY_INSET / 2), box[0] + KEY_INSET, box[1] + KEY_INSET,
-            transform=ax.transAxes, facecolor="white", alpha=0.85, edgecolor="none", zorder=29,
-        ))
+
+def draw_arrow_key(ax: Any, plan: KeyPlan, margin: Any = None) -> Any:
+    """Draw the key ``plan`` of the arrows of panel ``ax`` (the quiver it holds; None is
+    returned when it holds none) in its corner, or, for a key ``in_margin``, in the axes
+    ``margin`` (a row over the panels, its axis off) over the panel's left edge, on one
+    line. Returns the ``QuiverKey``."""
+    quivers = [c for c in ax.collections if type(c).__name__ == "Quiver"]
+    if not quivers:
+        return None
+    style: dict[str, Any] = {
+        "color": LABEL_GREY, "labelcolor": LABEL_GREY, "labelsep": LABEL_SEP_IN,
+        "fontproperties": {"size": KEY_POINTS}, "zorder": 30,
+    }
+    if plan.in_margin and margin is not None:
+        key = _margin_key(margin, quivers[0], plan.length, plan.label.replace("\n", " "), style)
+        margin.add_artist(key)
+        key.set_clip_on(False)  # drawn past its row's axes, which the layout makes room for
+        return key
+    cx, cy = plan.corner
+    w, h = plan.box
     # the arrow on the frame's side, its text towards the panel's middle: text estimated a
-    # little short does not run out of the panel
-    right = cx + box[0] / 2.0 > 0.5
+    # little short does not run out of the panel; the arrow within the box (labelled east,
+    # quiverkey puts the arrow's tip at X)
+    right = cx + w / 2.0 > 0.5
     return ax.quiverkey(
         quivers[0],
-        cx + box[0] - arrow_in / drawn_w if right else cx,
-        cy + box[1] / 2.0,
-        length,
-        label,
+        cx + w - plan.arrow_share if right else cx + plan.arrow_share,
+        cy + h / 2.0,
+        plan.length,
+        plan.label,
         coordinates="axes",
         labelpos="W" if right else "E",
-        labelsep=LABEL_SEP_IN,
-        color=LABEL_GREY,
-        labelcolor=LABEL_GREY,
-        fontproperties={"size": KEY_POINTS},
-        zorder=30,
+        **style,
     )
+
+
+def _margin_key(host: Any, quiver: Any, length: float, label: str, style: dict[str, Any]) -> Any:
+    """A ``QuiverKey`` of ``quiver`` placed in the axes ``host`` (matplotlib places a key in
+    its quiver's own axes): mid-height in the host, the arrow's tail over the left edge of
+    the quiver's panel, its text to the right; its extent (text and arrow) is what the
+    layout makes room for."""
+    from matplotlib.quiver import QuiverKey
+    from matplotlib.transforms import Affine2D, Bbox, blended_transform_factory
+
+    class MarginKey(QuiverKey):
+        def _set_transform(self) -> None:
+            # quiverkey's eastward label puts the arrow's tip at X: shifted by the arrow's
+            # drawn length (pixels, from the panel's scale after layout), its tail is at 0
+            panel: Any = self.Q.axes
+            x0, x1 = panel.get_xlim()
+            shift = length * panel.bbox.width / (x1 - x0)
+            at = blended_transform_factory(panel.transAxes, host.transAxes)
+            self.set_transform(at + Affine2D().translate(shift, 0.0))
+
+        def get_window_extent(self, renderer: Any = None) -> Any:
+            key: Any = self  # quiverkey's own parts, untyped in matplotlib's stubs
+            key._init()
+            at = self.get_transform().transform((self.X, self.Y))
+            key.text.set_position(at + key._text_shift())
+            # the arrow's polygon in pixels (a collection placed in other than data
+            # coordinates reports no extent of its own)
+            vector = key.vector
+            offset = vector.get_offset_transform().transform(vector.get_offsets())[0]
+            xy = vector.get_transform().transform(vector.get_paths()[0].vertices) + offset
+            return Bbox.union([key.text.get_window_extent(renderer),
+                               Bbox([xy.min(axis=0), xy.max(axis=0)])])
+
+    return MarginKey(quiver, 0.0, 0.5, length, label, labelpos="E", coordinates="axes",
+                     **style)
 
 
 def drawn_points(scene: Any, tails: F64, heads: F64, paths: Any = ()) -> F64:
@@ -135,3 +201,32 @@ def drawn_points(scene: Any, tails: F64, heads: F64, paths: Any = ()) -> F64:
     xy = np.concatenate([np.asarray(p, np.float64).reshape(-1, 2) for p in parts])
     out: F64 = xy[np.isfinite(xy).all(axis=1)]
     return out
+
+
+def key_of(
+    scenes: Any,
+    fields: Any,
+    drawn: Any,
+    paths: Any,
+    flow_scale: float,
+    extent: Any,
+    panel_in: tuple[float, float],
+) -> KeyPlan | None:
+    """The :class:`KeyPlan` of a figure whose panels show ``scenes`` (their
+    :class:`~aion_cli.scene.Scene`) with the arrows ``fields`` (:class:`.arrows.ArrowField`)
+    drawn ``drawn`` long (m), and ``paths``, in the window ``extent`` (an
+    :class:`.backdrop.Extent`), panels ``panel_in`` inches: the key of the last panel with
+    arrows (None without any)."""
+    with_arrows = [i for i in range(len(scenes)) if (drawn[i] > 0).any()]
+    if not with_arrows:
+        return None
+    last = with_arrows[-1]
+    field, scene = fields[last], scenes[last]
+    tails = field.xy
+    ends = tails + drawn[last][:, None] * np.column_stack([np.cos(field.angle),
+                                                           np.sin(field.angle)])
+    return plan_key(
+        last, flow_scale, field.full_length(scene.cell_size), scene.window_s,
+        drawn_points(scene, tails, ends, paths[last]),
+        (extent.x0, extent.x1, extent.y0, extent.y1), panel_in,
+    )

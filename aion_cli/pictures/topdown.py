@@ -26,8 +26,9 @@ What is drawn, back to front:
   nodes with flow and no heading, which no arrow carries);
 - **paths** (:class:`PathLine`) and **markers** (:class:`Marker`, e.g. start and goal) on top.
 
-A key draws the arrow of a stated flow in a panel's emptiest corner, one per figure
-(:mod:`.arrow_key`); the window's margin is as long as the longest arrow (:mod:`.view`).
+A key draws the arrow of a stated flow in a panel's empty corner, or over the panels where
+none is empty, one per figure (:mod:`.arrow_key`); the window's margin is as long as the
+longest arrow (:mod:`.view`).
 A colour bar labelled "direction entropy" (its ends named: one way, every way) shows the
 same blue-to-red scale (0..1). Several scenes (a series of times) become small multiples
 sharing axes, flow scale and colour bar.
@@ -54,7 +55,7 @@ import numpy as np
 from aion_cli.errors import InputError
 from aion_cli.formats.outputs import plain_text
 from aion_cli.formats.scene_colours import NO_FLOW_GREY, display_flow_scale
-from aion_cli.pictures.arrow_key import draw_arrow_key, drawn_points
+from aion_cli.pictures.arrow_key import draw_arrow_key, key_of
 from aion_cli.pictures.arrows import (
     ARROW_CELLS,
     ArrowScale,
@@ -179,12 +180,18 @@ def topdown_figure(
     )
     FigureCanvasAgg(fig)
     keyed = any(len(p) for p in per_panel) or any(panel_markers)
+    plan = key_of(scenes, fields, drawn, per_panel, scale, extent, (width, height))
+    margined = plan is not None and plan.in_margin  # a row of its own for the arrows' key
     # a row for the legend of paths and markers over the panels: inside a panel it covered
     # the map (a corridor plan's legend hid its goal and half its paths); the figure's own
     # "outside" legends overlap its title or caption
-    spec = fig.add_gridspec(rows + keyed, cols, height_ratios=[1e-3] * keyed + [1.0] * rows)
+    tops = keyed + margined
+    spec = fig.add_gridspec(rows + tops, cols, height_ratios=[1e-3] * tops + [1.0] * rows)
     key = fig.add_subplot(spec[0, :]) if keyed else None
-    grid = spec[int(keyed) :, :].subgridspec(rows, cols).subplots(
+    margin = fig.add_subplot(spec[tops - 1, :]) if margined else None
+    if margin is not None:
+        margin.set_axis_off()
+    grid = spec[tops:, :].subgridspec(rows, cols).subplots(
         sharex=True, sharey=True, squeeze=False
     )
     shared: tuple[Scene, Footprint | None, RoomOutlines] | None = None
@@ -223,21 +230,8 @@ def topdown_figure(
         if i % cols:
             ax.set_ylabel("")
         used.append(ax)
-    with_arrows = [i for i in range(len(used)) if (drawn[i] > 0).any()]
-    if with_arrows:  # one key per figure, in the emptiest corner of the last with arrows
-        last = with_arrows[-1]
-        tails = fields[last].xy
-        ends = tails + drawn[last][:, None] * np.column_stack(
-            [np.cos(fields[last].angle), np.sin(fields[last].angle)]
-        )
-        draw_arrow_key(
-            used[last],
-            scale,
-            fields[last].full_length(scenes[last].cell_size),
-            scenes[last].window_s,
-            drawn_points(scenes[last], tails, ends, per_panel[last]),
-            (width, height),
-        )
+    if plan is not None:  # one key per figure (.arrow_key)
+        draw_arrow_key(used[plan.panel], plan, margin)
     # one legend for every panel's paths and markers (a goal on an upper level is drawn on
     # that level's panel only), in its row over the panels
     legend: dict[str, Any] = {}

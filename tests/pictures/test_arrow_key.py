@@ -27,11 +27,14 @@ def _grid(step: float, nx: int, ny: int) -> Any:
 
 
 def _drawn(scenes: list[Scene]) -> tuple[Any, list[Any], list[Any]]:
-    """The figure (drawn), its panels and the keys (``QuiverKey`` artists) of all of them."""
+    """The figure (drawn), its panels and the keys (``QuiverKey`` artists) of the figure."""
     fig = topdown_figure(scenes, [f"panel {i}" for i in range(len(scenes))], dpi=60)
     fig.canvas.draw()
     panels = [ax for ax in fig.axes if ax.get_title().startswith("panel")]
-    keys = [a for ax in panels for a in ax.artists if type(a).__name__ == "QuiverKey"]
+    from matplotlib.quiver import QuiverKey
+
+    # in a panel's corner, or in a row of its own over the panels
+    keys = [a for ax in fig.axes for a in ax.artists if isinstance(a, QuiverKey)]
     return fig, panels, keys
 
 
@@ -148,11 +151,65 @@ def _white_grounds(ax: Any) -> list[Any]:
             and tuple(p.get_facecolor()[:3]) == (1.0, 1.0, 1.0)]
 
 
-def test_the_key_is_on_a_white_ground_only_where_no_corner_is_empty() -> None:
-    full = _grid(CELL, 30, 30)  # a square of cells filling its window: every corner covered
-    _, (ax,), (key,) = _drawn([cells_only_scene(full, np.linspace(1.0, 3.0, len(full)))])
-    (ground,) = _white_grounds(ax)
-    assert ground.get_zorder() < key.get_zorder()
+def _cell_pixels(ax: Any, xy: Any) -> Any:
+    """Every cell square's corners, in pixels of the drawn figure."""
+    corners = np.concatenate([xy + np.array([dx, dy]) for dx in (-0.25, 0.25)
+                              for dy in (-0.25, 0.25)])
+    return ax.transData.transform(corners)
+
+
+def _arrow_box(key: Any) -> Any:
+    """The key's arrow polygon's box, in pixels: its vertices (in its quiver's units)
+    through the quiver's scale, moved to the key's place."""
+    from matplotlib.transforms import Bbox
+
+    vector = key.vector
+    at = vector.get_offset_transform().transform(vector.get_offsets())[0]
+    xy = vector.get_transform().transform(vector.get_paths()[0].vertices) + at
+    return Bbox([xy.min(axis=0), xy.max(axis=0)])
+
+
+def _covers(box: Any, pixels: Any) -> bool:
+    return bool(((pixels[:, 0] >= box.x0) & (pixels[:, 0] <= box.x1)
+                 & (pixels[:, 1] >= box.y0) & (pixels[:, 1] <= box.y1)).any())
+
+
+@pytest.mark.parametrize("panels", [1, 3])
+def test_a_map_filling_every_corner_has_its_key_over_the_panels(panels: int) -> None:
+    """A square of cells filling its window: every corner of the panel holds data. The key
+    (a white ground under it covered the cells there) is drawn over the panels, outside every
+    panel's frame and title, covering no cell, on the page, as long as a panel's arrow of its
+    flow."""
+    full = _grid(CELL, 30, 30)
+    flows = np.linspace(1.0, 3.0, len(full))
+    fig, axes, (key,) = _drawn([cells_only_scene(full, flows) for _ in range(panels)])
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    for ax in axes:
+        assert _white_grounds(ax) == []
+        frame = ax.get_window_extent(renderer)
+        title = ax.title.get_window_extent(renderer)
+        for box in (key.text.get_window_extent(renderer), _arrow_box(key)):
+            assert not _covers(box, _cell_pixels(ax, full))
+            assert not box.overlaps(frame)
+            assert not box.overlaps(title)
+            # on the page (half a pixel of rounding, as layout.text_cut_off allows)
+            assert page.x0 - 0.5 <= box.x0
+            assert box.x1 <= page.x1 + 0.5
+            assert page.y0 - 0.5 <= box.y0
+            assert box.y1 <= page.y1 + 0.5
+    # its arrow as long, in pixels, as the busiest arrow times its flow's share
+    quiver = _quiver(axes[-1])
+    busiest = int(np.argmax(flows))
+    arrow_px = _extent_along(
+        quiver.get_paths()[busiest].vertices, 0.0
+    ) * axes[-1].get_window_extent(renderer).width
+    key_px = _arrow_box(key).width
+    assert key_px == pytest.approx(arrow_px * _stated_flow(key) / flows[busiest], rel=0.02)
+
+
+def test_a_key_in_a_corner_has_no_white_ground() -> None:
     xy = np.concatenate([_grid(CELL, 40, 4), _grid(CELL, 4, 40)])  # the upper right empty
-    _, (ax,), _ = _drawn([cells_only_scene(xy, np.linspace(1.0, 3.0, len(xy)))])
+    _, (ax,), (key,) = _drawn([cells_only_scene(xy, np.linspace(1.0, 3.0, len(xy)))])
     assert _white_grounds(ax) == []
+    assert key in ax.artists
