@@ -109,15 +109,17 @@ class ArrowScale:
         busiest crowd read "1.57e+03 detections")."""
         from aion_cli.number_text import significant
 
-        per = f"detections per {window_s:g}-s window"
+        flow = significant(self.flow)
+        # one flow, one detection: "up to 1 detections" read wrong
+        per = f"detection{'' if flow == '1' else 's'} per {window_s:g}-s window"
         if self.flow >= self.largest:
             return (
                 f"arrows: dominant direction, length proportional to flow (the longest: "
-                f"{significant(self.flow)} {per})"
+                f"{flow} {per})"
             )
         return (
             f"arrows: dominant direction, length proportional to flow up to "
-            f"{significant(self.flow)} {per} (busier entries drawn that long; the largest "
+            f"{flow} {per} (busier entries drawn that long; the largest "
             f"{significant(self.largest)})"
         )
 

@@ -234,7 +234,7 @@ def test_the_arrow_scale_is_the_busiest_flow_unless_one_dwarfs_the_rest() -> Non
 @pytest.mark.parametrize(
     ("flows", "shown"),
     [
-        (np.r_[np.ones(29), 1567.7], ["up to 1 detections", "the largest 1,570)"]),
+        (np.r_[np.ones(29), 1567.7], ["up to 1 detection per", "the largest 1,570)"]),
         (np.linspace(100.0, 1567.7, 30), ["(the longest: 1,570 detections per 600-s window)"]),
         (np.linspace(0.1, 0.974, 30), ["(the longest: 0.974 detections per 600-s window)"]),
     ],
