@@ -116,6 +116,8 @@ def text_cut_off(fig: Any) -> bool:
     texts = [getattr(fig, "_suptitle", None), getattr(fig, "_supxlabel", None)]
     for ax in fig.axes:
         texts += [ax.title, ax.xaxis.label, ax.yaxis.label]
+        if not ax.axison:  # a row of legend or key over the panels: its ticks are not drawn
+            continue
         for axis in (ax.xaxis, ax.yaxis):  # the labels of the ticks in view: those drawn
             lo, hi = sorted(axis.get_view_interval())
             texts += [label for loc, label in zip(axis.get_ticklocs(), axis.get_ticklabels(),

@@ -193,3 +193,30 @@ def test_a_label_cut_by_the_first_layout_is_drawn_again_whole(tmp_path: Path) ->
     label = ax.yaxis.label.get_window_extent(fig.canvas.get_renderer())
     assert label.x0 >= 4.0
     assert (tmp_path / "hotel.png").read_bytes().startswith(PNG_MAGIC)
+
+
+def test_the_ticks_of_a_row_drawn_without_axes_are_not_cut_text() -> None:
+    """A row over the panels (the legend of a plan's paths, the arrows' key of a map that
+    fills every corner) is an axes with its axis off: its tick labels, never drawn, lay past
+    the page's edges, and every such picture was laid out five times (a series of eight
+    panels 2.2 s -> 3.3 s). Only drawn text counts; a visible axis's ticks still do."""
+    from typing import Any
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from aion_cli.pictures.layout import text_cut_off
+
+    fig: Any = Figure(figsize=(4, 3), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    spec = fig.add_gridspec(2, 1, height_ratios=[1e-3, 1.0])
+    row = fig.add_subplot(spec[0, 0])
+    row.set_axis_off()
+    fig.add_subplot(spec[1, 0]).plot([0, 1], [0, 1])
+    fig.canvas.draw()
+    renderer, page = fig.canvas.get_renderer(), fig.bbox
+    ticks = [t.get_window_extent(renderer) for axis in (row.xaxis, row.yaxis)
+             for t in axis.get_ticklabels() if t.get_text()]
+    # the premise: the row's tick labels, laid out as not drawn, lie past the page's edges
+    assert any(b.x0 < -0.5 or b.y1 > page.y1 + 0.5 for b in ticks)
+    assert not text_cut_off(fig)
