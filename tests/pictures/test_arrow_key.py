@@ -213,3 +213,23 @@ def test_a_key_in_a_corner_has_no_white_ground() -> None:
     _, (ax,), (key,) = _drawn([cells_only_scene(xy, np.linspace(1.0, 3.0, len(xy)))])
     assert _white_grounds(ax) == []
     assert key in ax.artists
+
+
+def test_a_key_in_a_left_corner_keeps_its_arrow_in_the_panel() -> None:
+    """Cells everywhere but the lower left: the key goes there, text right of its arrow. The
+    arrow's tip was at the corner's edge (quiverkey puts the tip at X for an eastward label),
+    its shaft running left out of its box, over the frame."""
+    xy = _grid(CELL, 40, 40)
+    xy = xy[(xy[:, 0] > 10.0) | (xy[:, 1] > 10.0)]
+    flows = np.linspace(1.0, 3.0, len(xy))
+    fig, (ax,), (key,) = _drawn([cells_only_scene(xy, flows)])
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    arrow, text = _arrow_box(key), key.text.get_window_extent(renderer)
+    assert arrow.x1 <= text.x0  # the premise: the lower left, its text to the right
+    assert arrow.y1 < frame.y0 + frame.height / 2
+    for box in (arrow, text):
+        assert not _covers(box, _cell_pixels(ax, xy))
+        assert frame.x0 <= box.x0
+        assert box.x1 <= frame.x1
+        assert frame.y0 <= box.y0
