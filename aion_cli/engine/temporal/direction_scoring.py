@@ -40,33 +40,40 @@ def direction_day_scores(
     time-varying families as its static one."""
     b = params.bins
     directed = cv[:, :b]
-    has = row_sums(directed) > 0
+    per_pair = row_sums(directed)  # each pair's directed detections (row by row: any subset)
+    has = per_pair > 0
     if not has.any():
         return None
-    ce, cs, directed = ce[has], cs[has], directed[has]
+    if not has.all():
+        ce, cs, directed, per_pair = ce[has], cs[has], directed[has], per_pair[has]
     static = params.direction.index("static")
     day_score = np.zeros((candidates.size, len(params.direction)))
     # an entry with fewer directed detections than the time prior's weight cannot have a
     # time-varying histogram far from its static one: its other families score as static
-    evidence = fc.counts[:, :b].sum(axis=1) >= fc.kappa_t
+    # (the forecaster's sums of the same whole numbers)
+    evidence = fc.directed >= fc.kappa_t
     rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
-    rich_e, rich_h, rich_t = ce[rich], pair_h[rich], pair_t[rich]
     counted = DetectionBins.of(directed)
+    if rich.all():  # every pair's entry has the evidence (busy maps): no subset to copy
+        rich_e, rich_h, rich_t, rich_counted = ce, pair_h, pair_t, counted
+    else:
+        rich_e, rich_h, rich_t = ce[rich], pair_h[rich], pair_t[rich]
+        rich_counted = counted.subset(rich)
     timed = [d for d in range(len(params.direction)) if d != static and params.direction_enabled[d]]
     if params.direction_enabled[static]:
         logp = _pair_log_probs(fc, [params.direction[static]], ce, pair_h, pair_t, counted)
         day_score[:, static] = np.bincount(ce, logp[:, 0], minlength=candidates.size)
     if timed:
         names = [params.direction[d] for d in timed]
-        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, counted.subset(rich))
+        logp = _pair_log_probs(fc, names, rich_e, rich_h, rich_t, rich_counted)
         for j, d in enumerate(timed):
             day_score[:, d] = np.bincount(rich_e, logp[:, j], minlength=candidates.size)
     for d in range(len(params.direction)):
         if d != static and params.direction_enabled[d]:
             day_score[~evidence, d] = day_score[~evidence, static]
     # float64 already (bincount with weights): astype only tells the type checker so
-    detections = np.bincount(ce, row_sums(directed), minlength=candidates.size)
+    detections = np.bincount(ce, per_pair, minlength=candidates.size)
     return day_score, detections.astype(np.float64, copy=False)
 
 
@@ -104,7 +111,8 @@ def _pair_log_probs(
     next, so the per-bin FreMEn terms (memoised per chunk: one pass serves every order) and the
     [P, B] temporaries stay small: whole-day temporaries of hundreds of MB cost more in fresh
     pages than in arithmetic. Each pair's value does not depend on the chunking. Only the
-    bins a pair has detections in are evaluated and logged (``Forecaster.direction_at``)."""
+    bins a pair has detections in are evaluated and logged (``Forecaster.directions_at``,
+    every family of a chunk at once: the gathers they share made once)."""
     out = np.empty((e.size, len(names)))
     starts = np.arange(0, e.size + _DIRECTION_PAIRS, _DIRECTION_PAIRS)
     cut = np.searchsorted(counted.pair, starts)
@@ -113,8 +121,7 @@ def _pair_log_probs(
         pe, ph, pt = e[part], h[part], t_s[part]
         nz = slice(int(cut[k]), int(cut[k + 1]))
         pair, b, n = counted.pair[nz] - a, counted.bin[nz], counted.count[nz]
-        for j, name in enumerate(names):
-            q = fc.direction_at(name, pe, ph, pt, pair, b)
+        for j, q in enumerate(fc.directions_at(names, pe, ph, pt, pair, b)):
             logp = n * np.log(np.maximum(q, _LOG_FLOOR))
             out[part, j] = np.bincount(pair, logp, minlength=pe.size)
     return out

@@ -80,6 +80,8 @@ from aion_cli.engine.temporal.shape_prior import by_hour, shrunk_rate
 from aion_cli.engine.types import F64, I64
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from aion_cli.engine.temporal.components import FremenComponents
 
 
@@ -134,6 +136,7 @@ class Forecaster(FremenParts):
         self.rate_total = row_sums(self.rate)
         total = row_sums(self.counts)
         directed = row_sums(self.counts[:, :b])
+        self.directed = directed  # N[e, :B] summed: directed detections (whole numbers)
         self.directed_share = np.divide(directed, total, out=np.zeros(e), where=total > 0)
         self._shape_mean = self._mean(shape_sum)
         self._map_mean = self._mean(map_sum)
@@ -350,28 +353,52 @@ class Forecaster(FremenParts):
         so equal to the bit — computed at those (pair, bin) positions only: the day-ahead
         scoring asks for the one or two bins each pair has detections in, and a time-varying
         family needs its whole rows only for their sums."""
-        hist: F64 = self.histogram[e[pair], b]
-        if family == "static":
-            return hist
-        kappa_t = self.kappa_t
-        pseudo = self._pseudo_counts(family, e, h, t_s)
-        denominator = row_sums(pseudo) + kappa_t
-        hist *= kappa_t
-        hist += pseudo[pair, b]
-        hist /= denominator[pair]
-        return hist
+        return self.directions_at((family,), e, h, t_s, pair, b)[0]
 
-    def _pseudo_counts(self, family: str, e: I64, h: I64, t_s: F64) -> F64:
+    def directions_at(
+        self, families: Sequence[str], e: I64, h: I64, t_s: F64, pair: I64, b: I64
+    ) -> list[F64]:
+        """:meth:`direction_at` of each of ``families`` at the same positions, bit for bit,
+        with the gathers they share made once (issue 15: a day close asks every time-varying
+        family at the same pairs): the histogram at (pair, bin) times κ_t, and FreMEn's
+        rates and windows W[e, h] at the pairs (``_pseudo_counts``)."""
+        out: list[F64] = []
+        scaled: F64 | None = None
+        shared: dict[str, F64] = {}
+        for family in families:
+            if family == "static":
+                out.append(self.histogram[e[pair], b])  # a gathered copy, the caller's
+                continue
+            kappa_t = self.kappa_t
+            pseudo = self._pseudo_counts(family, e, h, t_s, shared)
+            denominator = row_sums(pseudo) + kappa_t
+            if scaled is None:  # histogram · κ_t, the first step of every family's value
+                scaled = self.histogram[e[pair], b]
+                scaled *= kappa_t
+            hist = scaled + pseudo[pair, b]  # a new array: ``scaled`` serves the next family
+            hist /= denominator[pair]
+            out.append(hist)
+        return out
+
+    def _pseudo_counts(
+        self, family: str, e: I64, h: I64, t_s: F64, shared: dict[str, F64] | None = None
+    ) -> F64:
         """The time-varying family's directed pseudo-counts c_b(t) float64[P, B] (module
-        docstring): the profile bin's counts, or FreMEn's clamped per-bin rates × W[e, h]."""
+        docstring): the profile bin's counts, or FreMEn's clamped per-bin rates × W[e, h].
+        ``shared``: FreMEn's gathers at these pairs (μ[e, :B], W[e, h]), kept there by the
+        first FreMEn family for the next (the same arrays, read only)."""
         b = self.params.bins
         if family == "profile":
             counts: F64 = self._counts_at(e, h, b)
             return counts
         m = int(family.removeprefix("fremen"))
         terms = self._bin_terms(e, t_s, m, b, min(self.params.max_order, DIRECTION_ORDERS))
-        pseudo: F64 = self.rate[e, :b] + terms  # a new array: the terms are memoised
+        held = {} if shared is None else shared
+        if "rate" not in held:
+            held["rate"] = self.rate[e, :b]
+            held["windows"] = self.profile_windows_at(e, h)[:, None]
+        pseudo: F64 = held["rate"] + terms  # a new array: the terms are memoised
         np.maximum(pseudo, 0.0, out=pseudo)
-        pseudo *= self.profile_windows_at(e, h)[:, None]
+        pseudo *= held["windows"]
         return pseudo
 

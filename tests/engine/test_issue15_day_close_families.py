@@ -1,0 +1,115 @@
+"""Issue 15, stop 68: a day close asks every direction family at the same pairs at once
+(``Forecaster.directions_at``: the gathers they share made once), and the absorption finds a
+day's profile cells from the (entry, value) rows it found already (``_profile_keys``). Both
+must give what they replace to the bit: each family's full histograms at the asked bins, and
+``np.unique(keys, return_inverse=True)`` of the cells' flat keys."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from aion_cli.engine.temporal.absorption import _profile_keys
+from aion_cli.engine.temporal.direction_scoring import DetectionBins
+from aion_cli.engine.temporal.forecast import Forecaster
+from aion_cli.engine.temporal.pooling import PoolStats
+from aion_cli.engine.windows import to_model_seconds
+from tests.engine.temporal_data import DAY, HOUR, MONDAY, corridor
+
+
+def _rush(d: int, h: int) -> float:
+    return 40.0 if h in (8, 9, 17, 18) else 2.0
+
+
+def _turning(d: int, h: int) -> float:
+    return 0.0 if h < 12 else np.pi / 2  # east in the morning, north in the afternoon
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
+
+
+def _forecaster() -> tuple[Forecaster, Forecaster, dict[str, np.ndarray]]:
+    """Two forecasters of the same state (one per way of asking: nothing memoised by one
+    serves the other) and pairs of a day with detections in one or two bins."""
+    state = corridor(6, _rush, seed=3, heading=_turning).state
+    params = state.params
+    view = state.query_temporal()
+    rows = state.entries.canonical_order()
+    groups = np.zeros(rows.size, np.int64)
+    pool = PoolStats.of(params, view, rows, groups, 1)
+    first, second = (Forecaster(params, view, rows, groups, pool) for _ in range(2))
+    rng = np.random.default_rng(1)
+    pairs = 600
+    t_ns = MONDAY + 6 * DAY + rng.integers(0, 24, pairs) * HOUR + 30 * 60 * 10**9
+    counts = np.zeros((pairs, params.bins))
+    counts[np.arange(pairs), rng.integers(0, params.bins, pairs)] = rng.integers(1, 5, pairs)
+    counts[::4, 1] += 2.0  # a quarter of the pairs with detections in two bins
+    counted = DetectionBins.of(counts)
+    return first, second, {
+        "e": rng.integers(0, rows.size, pairs),
+        "h": params.calendar.profile_bin(t_ns),
+        "t_s": to_model_seconds(t_ns),
+        "pair": counted.pair,
+        "bin": counted.bin,
+    }
+
+
+@pytest.mark.parametrize("order", ["as_configured", "reversed", "timed_twice"])
+def test_families_asked_together_equal_each_full_histogram_to_the_bit(order: str) -> None:
+    fc, reference, p = _forecaster()
+    names = list(fc.params.direction)
+    assert "static" in names
+    assert "profile" in names
+    assert sum(n.startswith("fremen") for n in names) >= 2  # two FreMEn share their gathers
+    if order == "reversed":
+        names = names[::-1]
+    elif order == "timed_twice":
+        names = [n for n in names if n != "static"] * 2
+    got = fc.directions_at(names, p["e"], p["h"], p["t_s"], p["pair"], p["bin"])
+    assert len(got) == len(names)
+    for name, values in zip(names, got, strict=True):
+        full = reference.direction(name, p["e"], p["h"], p["t_s"])
+        np.testing.assert_array_equal(_bits(values), _bits(full[p["pair"], p["bin"]]))
+        single = reference.direction_at(name, p["e"], p["h"], p["t_s"], p["pair"], p["bin"])
+        np.testing.assert_array_equal(_bits(values), _bits(single))
+    # each family's values are its own array: writing one leaves the others as they were
+    before = [v.copy() for v in got]
+    got[0][:] = -1.0
+    for values, kept in zip(got[1:], before[1:], strict=True):
+        np.testing.assert_array_equal(values, kept)
+
+
+def test_the_forecasters_directed_sums_are_the_counts_summed_over_the_direction_bins() -> None:
+    fc, _, _ = _forecaster()
+    b = fc.params.bins
+    expected = fc.counts[:, :b].sum(axis=1)
+    assert expected.max() > 0
+    np.testing.assert_array_equal(_bits(fc.directed), _bits(expected))
+
+
+@pytest.mark.parametrize(
+    ("hours_low", "hours_high", "pairs"),
+    [(0, 24, 5_000), (24, 48, 5_000), (7, 8, 300), (0, 48, 40), (13, 14, 1)],
+)
+def test_profile_keys_are_the_unique_keys_and_their_inverse(
+    hours_low: int, hours_high: int, pairs: int
+) -> None:
+    rng = np.random.default_rng(hours_low * 1000 + pairs)
+    n_prof, values = 48, 9
+    rows = np.sort(rng.integers(0, 5_000, pairs))
+    flat = rows * values + rng.integers(0, values, pairs)
+    targets, which = np.unique(flat, return_inverse=True)
+    hours = rng.integers(hours_low, hours_high, pairs)
+    keys, inverse = _profile_keys(targets, which.reshape(-1), hours, n_prof)
+    expected, expected_inverse = np.unique(flat * n_prof + hours, return_inverse=True)
+    np.testing.assert_array_equal(keys, expected)
+    np.testing.assert_array_equal(inverse, expected_inverse.reshape(-1))
+    np.testing.assert_array_equal(keys[inverse], flat * n_prof + hours)
+
+
+def test_profile_keys_of_a_day_without_counts() -> None:
+    empty = np.zeros(0, np.int64)
+    keys, inverse = _profile_keys(empty, empty, empty, 48)
+    assert keys.size == 0
+    assert inverse.size == 0
