@@ -1,8 +1,9 @@
 """Issue 15, stop 68: a day close asks every direction family at the same pairs at once
-(``Forecaster.directions_at``: the gathers they share made once), and the absorption finds a
-day's profile cells from the (entry, value) rows it found already (``_profile_keys``). Both
-must give what they replace to the bit: each family's full histograms at the asked bins, and
-``np.unique(keys, return_inverse=True)`` of the cells' flat keys."""
+(``Forecaster.directions_at``: the gathers they share made once), the absorption finds a
+day's profile cells from the (entry, value) rows it found already (``_profile_keys``), and
+κ's estimate gathers the parents of the sampled rows only. Each must give what it replaces to
+the bit: each family's full histograms at the asked bins, ``np.unique(keys,
+return_inverse=True)`` of the cells' flat keys, and κ of exactly the kept rows."""
 
 from __future__ import annotations
 
@@ -10,6 +11,12 @@ import numpy as np
 import pytest
 
 from aion_cli.engine.temporal.absorption import _profile_keys
+from aion_cli.engine.temporal.direction_prior import (
+    MAX_ENTRIES,
+    MIN_ENTRIES,
+    fitted_kappa,
+    sample_rows,
+)
 from aion_cli.engine.temporal.direction_scoring import DetectionBins
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.pooling import PoolStats
@@ -113,3 +120,31 @@ def test_profile_keys_of_a_day_without_counts() -> None:
     keys, inverse = _profile_keys(empty, empty, empty, 48)
     assert keys.size == 0
     assert inverse.size == 0
+
+
+def test_a_sampled_kappa_reads_each_kept_rows_own_parent() -> None:
+    """κ from more telling rows than ``MAX_ENTRIES`` is κ from exactly the rows the sample
+    keeps, each with its own parent histogram (clipped where it has zeros): the parents are
+    gathered for the kept rows only (issue 15, stop 68)."""
+    rng = np.random.default_rng(68)
+    n = 9_000
+    parents = rng.dirichlet(np.full(8, 1.5), 3)
+    parents[2, :3] = 0.0  # zeros the estimate clips to 1e-12
+    parents[2] /= parents[2].sum()
+    group = rng.integers(0, 3, n)
+    parent = parents[group]
+    totals = rng.integers(0, 40, n)  # some rows of fewer than two detections: not telling
+    draws = [
+        rng.multinomial(t, rng.dirichlet(6.0 * p + 1e-3))
+        for t, p in zip(totals, parent, strict=True)
+    ]
+    counts = np.array(draws, dtype=np.float64)
+    tell = np.flatnonzero(counts.sum(axis=1) >= 2)
+    assert tell.size > MAX_ENTRIES
+    kept = tell[sample_rows(counts[tell], MAX_ENTRIES)]
+    assert MIN_ENTRIES <= kept.size <= MAX_ENTRIES  # the second estimate samples nothing
+    assert np.unique(group[kept]).size == 3
+    whole = fitted_kappa(counts, parent)
+    assert whole == fitted_kappa(counts[kept], parent[kept])
+    # and the rows' parents matter: the same rows with the parents shifted by one row differ
+    assert whole != fitted_kappa(counts[kept], np.roll(parent[kept], 1, axis=0))

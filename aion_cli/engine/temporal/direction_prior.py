@@ -104,12 +104,15 @@ def fitted_kappa(
     tell = n >= 2
     if int(tell.sum()) < MIN_ENTRIES:
         return fallback
-    c = np.asarray(counts, np.float64)[tell]
-    p = np.clip(np.asarray(parent, np.float64)[tell], 1e-12, None)
-    n = n[tell]
+    kept = np.flatnonzero(tell)
+    c = np.asarray(counts, np.float64)[kept]
     if c.shape[0] > MAX_ENTRIES:
         keep = sample_rows(c, MAX_ENTRIES)
-        c, p, n = c[keep], p[keep], n[keep]
+        kept, c = kept[keep], c[keep]
+    # the parents' shares of the rows kept only (elementwise: the same values as clipping
+    # every telling row first; issue 15: κ_t's rows are an entry's profile bins, ~45,000)
+    p = np.clip(np.asarray(parent, np.float64)[kept], 1e-12, None)
+    n = n[kept]
     row, col = np.nonzero(c)
     # the likelihood depends only on how often each (count, parent share) pair and each
     # entry total occur: evaluated once per distinct value, weighted by how often it occurs
