@@ -12,7 +12,13 @@ from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.grouping import unique_inverse
-from aion_cli.engine.temporal import absorption, forecast, fremen_parts, scoring
+from aion_cli.engine.temporal import (
+    absorption,
+    direction_scoring,
+    forecast,
+    fremen_parts,
+    scoring,
+)
 from aion_cli.engine.temporal import model as temporal
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
@@ -68,7 +74,7 @@ def test_block_sizes_do_not_change_the_learnt_state(
     entries, pairs, rows = sizes
     monkeypatch.setattr(scoring, "_ENTRIES", entries)
     monkeypatch.setattr(absorption, "_ROWS", entries)
-    monkeypatch.setattr(scoring, "_DIRECTION_PAIRS", pairs)
+    monkeypatch.setattr(direction_scoring, "_DIRECTION_PAIRS", pairs)
     monkeypatch.setattr(forecast, "BLOCK", rows)
     monkeypatch.setattr(fremen_parts, "BLOCK", rows)
     blocked = _learnt(params, 40, days)
