@@ -242,6 +242,10 @@ def print_map(report: dict[str, Any]) -> None:
     scored = days_scored_text(report)
     if scored is not None:
         table.add_row("days scored", scored)
+    calendar = families.get("calendar")
+    if isinstance(calendar, dict):
+        profile = str((report.get("config") or {}).get("profile", "day_weekend"))
+        table.add_row("calendar", safe(calendar_text(calendar, profile)))
     from aion_cli.forecast_notes import observed_hours
 
     hours = observed_hours(families, report.get("config") or {}, report.get("timezone"))
@@ -304,3 +308,25 @@ def input_rows(
         f"... {between:,} more {what} (of {len(inputs):,}; --format json lists every one)",
         *cells[-half:],
     ]
+
+
+def calendar_text(calendar: dict[str, Any], profile: str) -> str:
+    """The ``calendar`` row of ``aion info``: the calendar the map's closed days ask for
+    (``families.calendar``, :mod:`aion_cli.engine.temporal.week_evidence`) and the one its
+    forecasts use (``profile``)."""
+    from aion_cli.engine.temporal.week_evidence import MIN_DAYS
+
+    gain, days = float(calendar.get("gain", 0.0)), int(calendar.get("weekday_days", 0))
+    using = f"forecasts use profile = \"{profile}\""
+    if calendar.get("calendar") == "week":
+        hint = "" if profile == "week" else (
+            "; profile = \"week\" keeps each weekday's own hours (3.5 times an entry's "
+            "profile bytes)"
+        )
+        return (f"week: the hours of the week forecast the closed days {gain:,.1f} nats "
+                f"better day ahead than those of weekdays and weekends; {using}{hint}")
+    if days < MIN_DAYS:
+        return (f"weekdays and weekends: too few days to judge the week's hours (each "
+                f"weekday needs {MIN_DAYS}, the fewest seen {days}); {using}")
+    return (f"weekdays and weekends: the hours of the week forecast the closed days no "
+            f"better day ahead ({gain:+,.1f} nats); {using}")

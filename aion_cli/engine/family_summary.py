@@ -1,6 +1,6 @@
 """What a map's manifest says about its forecasts (``aion info``, the forecast notes): how
 many entries forecast with each family, whether the map's total is reconciled, how much was
-scored, and which profile bins were observed at all."""
+scored, which profile bins were observed at all, and which calendar the data asks for."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numpy as np
 from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.temporal import query_state
 from aion_cli.engine.temporal.choice import CHOICE_RULES
+from aion_cli.engine.temporal.week_evidence import calendar_choice
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -22,7 +23,9 @@ def family_summary(state: MapState) -> dict[str, Any]:
     bins (hour of day × kind of day) in which anything was observed, pending day and open
     window included (:func:`~aion_cli.engine.temporal.query_state.observed_bins`: a forecast in
     another bin is extrapolated). The choice depends only on the day-ahead scores, so no
-    forecast is prepared."""
+    forecast is prepared. ``calendar``: the hours of the week or of weekdays and weekends, as
+    the closed days' map totals judge them day ahead
+    (:func:`~aion_cli.engine.temporal.week_evidence.calendar_choice`)."""
     rows = state.entries.canonical_order()
     groups, n_groups = state.groups(rows)
     t = state.scored_temporal()
@@ -42,6 +45,7 @@ def family_summary(state: MapState) -> dict[str, Any]:
         "last_day_provisional": state.provisional_scores() is not None,  # cached
         "observed_bins": observed.tolist(),
         "rules": CHOICE_RULES,
+        "calendar": calendar_choice(state.temporal.week_sums, state.config.family_margin),
     }
 
 

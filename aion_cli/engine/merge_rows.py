@@ -75,6 +75,7 @@ def merge_in_earlier(early: MapState, late: MapState) -> MapState:
     early.temporal.glob = small.temporal.glob
     early.temporal.window_chi2 = small.temporal.window_chi2
     early.temporal.day_level = small.temporal.day_level
+    early.temporal.week_sums = small.temporal.week_sums
     row_map = np.full(small.entries.capacity, -1, np.int64)
     row_map[live] = new
     early.pending = small.pending.relabelled(row_map)

@@ -7,7 +7,9 @@ block's temporaries (a K-vector per (row, value bin)) stay small on any map. Eve
 taken per row in the pairs' order, so the accumulators do not depend on the block size. How
 bursty the day's window totals were is added to ``window_chi2``
 (:mod:`~aion_cli.engine.temporal.shape_prior`), and its level per profile bin to
-``day_level`` (:mod:`~aion_cli.engine.temporal.day_level`).
+``day_level`` (:mod:`~aion_cli.engine.temporal.day_level`); the day's totals per hour of
+the week, scored against the map's before they are added, to ``week_sums``
+(:mod:`~aion_cli.engine.temporal.week_evidence`).
 Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'s job.
 """
 
@@ -22,6 +24,7 @@ from aion_cli.engine.temporal.day_level import add_sums, day_sums
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.shape_prior import day_chi2
+from aion_cli.engine.temporal.week_evidence import add_day, week_bins
 from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
@@ -75,6 +78,10 @@ def absorb_day(
             np.array([utc_s[fixed].max()]),
         )
         state.glob.add_block(np.array([0]), block)
+    state.week_sums = add_day(  # scored against the week's bins, then added
+        state.week_sums, day, week_bins(params.calendar, h, utc_s), state.window_chi2,
+        params.calendar.bins_per_day,
+    )
     state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
     state.day_level = add_sums(state.day_level, day_sums(day, h, n_prof))  # and their level
     obs_e, obs_s, obs_w = day.own_pairs()

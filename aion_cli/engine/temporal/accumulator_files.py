@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from aion_cli.engine.temporal import day_level, shape_prior
+from aion_cli.engine.temporal import day_level, shape_prior, week_evidence
 from aion_cli.engine.temporal.accumulators import _SCORES, _TALLIES, TemporalState
 from aion_cli.engine.temporal.observation_block import ObsBlock
 from aion_cli.engine.temporal.stored_layout import (
@@ -53,6 +53,8 @@ def state_to_arrays(state: TemporalState, prefix: str, rows: I64) -> dict[str, A
     out[prefix + day_level.MEMBER] = level.copy() if level.size else day_level.empty_sums(
         state.n_bins
     )
+    if state.week_sums.size:  # none before a closed day (the map reads as no evidence)
+        out[prefix + week_evidence.MEMBER] = state.week_sums.copy()
     own = state.obs.n[r] > 0
     out[prefix + "obs_index"] = stored_positions(pos[own], r.size)
     out.update(state.obs.to_arrays(prefix + "obs_", r[own]))
@@ -103,6 +105,7 @@ def state_from_arrays(
     out.glob = ObsBlock.from_arrays(arrays, prefix + "glob_", 1, periods, bins)
     out.window_chi2 = shape_prior.stored_window_chi2(arrays, prefix)
     out.day_level = day_level.stored_sums(arrays, prefix, bins)
+    out.week_sums = week_evidence.stored_sums(arrays, prefix, bins)
     own = stored_index(arrays, prefix + "obs_index", rows)
     block = ObsBlock.from_arrays(
         arrays, prefix + "obs_", own.size, periods, bins, copy, fourier

@@ -84,6 +84,9 @@ class TemporalState:
     day_level: F64 = field(default_factory=lambda: np.zeros((4, 0)), compare=False)
     """Per (kind of slot, profile bin), the days observed and sums of their rates: how much
     whole days differ in level (:mod:`.day_level`; shape ``(4, 0)`` before any day)."""
+    week_sums: F64 = field(default_factory=lambda: np.zeros((4, 0)), compare=False)
+    """Per hour of the week, the map's days, detections and units observed and the week
+    calendar's day-ahead gain (:mod:`.week_evidence`; shape ``(4, 0)`` before any day)."""
     high_water: int = field(default=-1, compare=False, repr=False)
     """Rows from here on were never written (hold zeros): :meth:`resize` does not copy them
     (reserved capacity stays unbacked by memory) and absorbing counts writes them without
@@ -158,7 +161,7 @@ class TemporalState:
             self.dir_score.shape[1],
         )
         out.glob, out.window_chi2 = self.glob.take([0]), self.window_chi2.copy()
-        out.day_level = self.day_level.copy()
+        out.day_level, out.week_sums = self.day_level.copy(), self.week_sums.copy()
         out.fourier_loaded = self.fourier_loaded
         return out
 
@@ -225,12 +228,15 @@ class TemporalState:
                 np.add.at(getattr(self, name), db, vals[name])
 
     def add_map_sums(self, other: TemporalState) -> None:
-        """Add ``other``'s sums of the map as a whole (``window_chi2``, ``day_level``): those of
+        """Add ``other``'s sums of the map as a whole (``window_chi2``, ``day_level``,
+        ``week_sums``): those of
         a map of other days, merged or continued into this one."""
+        from aion_cli.engine.temporal import week_evidence
         from aion_cli.engine.temporal.day_level import add_sums
 
         self.window_chi2 += other.window_chi2
         self.day_level = add_sums(self.day_level, other.day_level)
+        self.week_sums = week_evidence.add_sums(self.week_sums, other.week_sums)
 
     def add_from(
         self,
@@ -308,7 +314,7 @@ class TemporalState:
         state: dict[str, Any] = {name: getattr(self, name)[:keep] for name in _ADDITIVE}
         state["obs"] = ObsBlock(*(getattr(self.obs, f)[:keep] for f in _OBS_FIELDS))
         state["glob"], state["window_chi2"] = self.glob, self.window_chi2
-        state["day_level"] = self.day_level
+        state["day_level"], state["week_sums"] = self.day_level, self.week_sums
         state["rows"], state["high_water"] = self.n_rows, keep
         state["generation"] = self.generation
         return state
@@ -322,6 +328,7 @@ class TemporalState:
             **{name: state[name] for name in _ADDITIVE},
             window_chi2=state["window_chi2"],
             day_level=state["day_level"],
+            week_sums=state.get("week_sums", np.zeros((4, 0))),
             high_water=keep,
         )
         written.resize(int(state["rows"]))
@@ -340,6 +347,7 @@ class TemporalState:
         for name in _ADDITIVE:
             getattr(new, name)[:keep] = getattr(self, name)[:keep]
         self.obs, self.window_chi2, self.day_level = new.obs, new.window_chi2, new.day_level
+        self.week_sums = new.week_sums
         for name in _ADDITIVE:
             setattr(self, name, getattr(new, name))
         self.high_water = keep
@@ -354,6 +362,7 @@ class TemporalState:
             **{name: getattr(self, name)[r].copy() for name in _ADDITIVE},
             window_chi2=self.window_chi2.copy(),
             day_level=self.day_level.copy(),
+            week_sums=self.week_sums.copy(),
             fourier_loaded=self.fourier_loaded,
         )
 
@@ -371,7 +380,7 @@ class TemporalState:
     @classmethod
     def concat(cls, states: list[TemporalState]) -> TemporalState:
         """Rows of every state in order; the global block (and ``window_chi2``,
-        ``day_level``) is the first state's."""
+        ``day_level``, ``week_sums``) is the first state's."""
         if not states:
             raise ValueError("concat needs at least one state")
         obs = ObsBlock(*(np.concatenate([getattr(s.obs, f) for s in states]) for f in _OBS_FIELDS))
@@ -380,8 +389,9 @@ class TemporalState:
         }
         loaded = all(s.fourier_loaded for s in states)
         chi2, level = states[0].window_chi2.copy(), states[0].day_level.copy()
+        week = states[0].week_sums.copy()
         return cls(states[0].glob.take([0]), obs, **joined, window_chi2=chi2, day_level=level,
-                   fourier_loaded=loaded)
+                   week_sums=week, fourier_loaded=loaded)
 
     # -- persistence (:mod:`.accumulator_files`) --------------------------------------------
     def to_arrays(self, prefix: str, rows: I64) -> dict[str, Any]:
