@@ -16,7 +16,7 @@ import numpy.typing as npt
 from aion_cli.errors import AionError, MapFileError, MapVersionError
 
 MAP_FORMAT = "aion-map"
-MAP_VERSION = (2, 1)
+MAP_VERSION = (2, 2)
 MANIFEST_NAME = "manifest.json"
 MEMBER_SUFFIX = ".npy"
 
