@@ -6,6 +6,7 @@ few to judge; continuing and merging give one build's sums and choice."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -19,7 +20,6 @@ from benchmarks.forecast_scenarios import SCENARIOS, draw, spans, write_csv
 from tests.cli.conftest import run, run_json
 
 TRAIN_DAYS = 15  # Monday to Monday: every weekday closed twice, the last Monday pending
-HOUR_NS = 3600 * 10**9
 
 
 def _logs(name: str, folder: Path, cuts: tuple[int, ...] = ()) -> list[Path]:
@@ -31,7 +31,7 @@ def _logs(name: str, folder: Path, cuts: tuple[int, ...] = ()) -> list[Path]:
     hours = drawn.hours
     out = []
     edges = [0, *cuts, TRAIN_DAYS]
-    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+    for k, (a, b) in enumerate(itertools.pairwise(edges)):
         sl = slice(int(np.searchsorted(hours.day, a)), int(np.searchsorted(hours.day, b)))
         start, end = int(hours.start_s[sl.start]) * 10**9, int(hours.start_s[sl.stop - 1])
         rows = np.flatnonzero((drawn.t_ns >= start) & (drawn.t_ns < (end + 3600) * 10**9))
@@ -87,7 +87,8 @@ def test_a_weekday_market_asks_for_the_week(market: Path) -> None:
     assert week[2 * 24 + 10] > 3 * week[3 * 24 + 10]
     assert day_weekend[2 * 24 + 10] == day_weekend[3 * 24 + 10]
     text = run("info", market).stdout
-    assert "calendar" in text and "profile = \"week\"" in " ".join(text.split())
+    assert "calendar" in text
+    assert "profile = \"week\"" in " ".join(text.split())
 
 
 def test_the_same_rhythm_every_week_keeps_weekdays_and_weekends(
