@@ -131,3 +131,55 @@ def test_continued_and_merged_maps_choose_as_one_build(
     assert run("merge", *parts, "-o", merged, "-q").exit_code == 0
     np.testing.assert_array_equal(_sums(merged)[:3], whole[:3])
     assert _calendar(merged)["calendar"] == "week"
+
+
+def test_a_map_written_before_the_member_continues_into_one_with_it(tmp_path: Path) -> None:
+    """A 2.1 map (no ``temporal_week_sums``, as aion wrote it before) reads as no evidence
+    and, continued, holds the sums of the days closed since: not its own earlier days'."""
+    import json
+    import zipfile
+
+    first, second = _logs("market", tmp_path, cuts=(8,))
+    new = _build([first], tmp_path / "new.aion")
+    old = tmp_path / "old.aion"
+    with zipfile.ZipFile(new) as zin:
+        contents = {n: zin.read(n) for n in zin.namelist() if n != "temporal_week_sums.npy"}
+    manifest = json.loads(contents["manifest.json"])
+    manifest["version"] = "2.1"
+    del manifest["members"]["temporal_week_sums"]
+    del manifest["families"]["calendar"]
+    contents["manifest.json"] = json.dumps(manifest).encode()
+    with zipfile.ZipFile(old, "w", compression=zipfile.ZIP_STORED) as zout:
+        for name, data in contents.items():
+            zout.writestr(name, data)
+    assert "calendar" not in run("info", old).stdout
+    _build([second], old, "--map", old)
+    arrays, written = read_map(old)
+    assert written["version"] == "2.2"
+    # days 0-6 closed in the 2.1 map (no sums); since: its pending Monday (7) and 8-13 closed,
+    # one of each weekday, the last Monday (14) pending
+    days = arrays["temporal_week_sums"][0].reshape(7, 24).max(axis=1)
+    np.testing.assert_array_equal(days, [1] * 7)
+    assert written["families"]["calendar"]["calendar"] == "day_weekend"
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (np.zeros((4, 100)), "shape"),
+        (np.zeros((3, 168)), "shape"),
+        (np.zeros((4, 168), np.int64), "real numbers"),
+        (np.full((4, 168), np.nan), "non-finite"),
+        (-np.ones((4, 168)), "negative"),
+    ],
+)
+def test_corrupt_sums_are_refused(value: np.ndarray, message: str) -> None:
+    from aion_cli.engine.temporal.week_evidence import stored_sums
+    from aion_cli.errors import MapCorruptError
+
+    with pytest.raises(MapCorruptError, match=message):
+        stored_sums({"t_week_sums": value}, "t_", 48)
+    gain_only = np.zeros((4, 168))
+    gain_only[3] = -1.0  # a loss of the week is a sum like any other
+    np.testing.assert_array_equal(stored_sums({"t_week_sums": gain_only}, "t_", 48), gain_only)
+    assert stored_sums({}, "t_", 48).shape == (4, 0)
