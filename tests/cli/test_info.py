@@ -211,6 +211,8 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
         "last_day_provisional": False,
         "observed_bins": [8],  # the office log's 20 minutes from Monday 08:00 UTC
         "rules": 2,  # the choice rules the counts were taken under (engine.temporal.choice)
+        # no closed day: no weekday seen, nothing scored, the default calendar
+        "calendar": {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 0},
     }
     assert doc["timezone"] == "UTC"
     table = run("info", office.map)
@@ -223,6 +225,7 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
     assert any("hours observed" in line and hours in line and "UTC" not in line
                for line in lines)
     assert any("time span" in line and line.rstrip(" │").endswith("UTC") for line in lines)
+    assert any("calendar" in line and "too few days" in line for line in lines)
     assert "models note" not in table.stdout
 
 
