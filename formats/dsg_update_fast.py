@@ -28,7 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from aion_cli.formats.raw import RawMessage, normalize_msgtype
+from aion_cli.formats.raw import RawMessage, from_recording, normalize_msgtype
 
 #: The message type this module reads (normalised spelling).
 DSG_UPDATE = "hydra_msgs/msg/DsgUpdate"
@@ -60,8 +60,11 @@ class FieldsRead(RawMessage):
 
     @classmethod
     def of(cls, msg: RawMessage, fields: DsgUpdateFields) -> FieldsRead:
-        """``msg`` with ``fields``, what :func:`update_fields` read of it."""
-        return cls(msg.topic, msg.msgtype, msg.log_time_ns, msg.data, msg.encoding, fields)
+        """``msg`` with ``fields``, what :func:`update_fields` read of it, of ``msg``'s
+        recording (:attr:`RawMessage.recording`: whose graph it is, for the union of one
+        session's graphs that robots log at once, :mod:`aion_cli.session_graphs`)."""
+        out = cls(msg.topic, msg.msgtype, msg.log_time_ns, msg.data, msg.encoding, fields)
+        return from_recording(out, msg.recording) if msg.recording else out
 
 
 def _u32(data: memoryview, p: int) -> int:
