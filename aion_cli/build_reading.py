@@ -23,10 +23,11 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.formats.log_overlaps import topics_at_once
-from aion_cli.graph_owners import graph_streams_at_once
+from aion_cli.graph_owners import graph_streams, graph_streams_at_once
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.graph_source import graph_source
 from aion_cli.log_observed import marker_times, observed_fill
+from aion_cli.session_graphs import SessionGraphs
 from aion_cli.tf_feed import (
     check_tf,
     check_times,
@@ -134,7 +135,7 @@ class ReadStep(StreamStep):
         start = self._times.start_ns
         if start is None:
             start = int(logset.start_ns)
-        return graph_source(
+        fixed = graph_source(
             self.report, plan, self.opts,
             continued_graph=self.previous is not None and self.previous.graph is not None,
             start=start,
@@ -144,3 +145,6 @@ class ReadStep(StreamStep):
                 logset, plan.names("graph"), self.graphs.peek, config.bind_radius
             ),
         )
+        if plan.graph:  # robots at once logging one session's graphs: their union
+            self.graphs.sessions = SessionGraphs(graph_streams(logset, plan.names("graph")))
+        return fixed

@@ -211,6 +211,8 @@ class StreamStep:
                 self.progress.advance(n_messages)
             if graph_msg is not None:
                 snapshot = self.graphs.decode_or_skip(logset, graph_msg)
+                if snapshot is not None:
+                    snapshot = self.graphs.sessions.join(graph_msg.recording, snapshot)
                 if snapshot is not None and len(hold):
                     _superseded_mesh(behind)
                     behind.append((hold.left + len(hold), snapshot))

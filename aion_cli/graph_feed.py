@@ -31,6 +31,7 @@ from aion_cli.graph_notes import (
     other_frame_warning,
 )
 from aion_cli.graph_schedule import graph_schedule
+from aion_cli.session_graphs import SessionGraphs
 
 if TYPE_CHECKING:
     from aion_cli.build_report import BuildReport, ProgressSink
@@ -63,6 +64,8 @@ class GraphFeed:
     ) -> None:
         self.report = report
         self.map_frame = map_frame
+        # robots at once logging one session's graphs: the map's graph is their union
+        self.sessions = SessionGraphs()
         # per topic, the frame its graphs name when that is not the map frame (None: it is)
         self._frames: dict[str, str | None] = {}
         if dsg_version is not None:  # --dsg-version: failures stop the build

@@ -44,7 +44,7 @@ if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.formats.raw import RawMessage
 
-__all__ = ["FIRST_GRAPHS", "graph_streams_at_once", "graphs_at_once_error"]
+__all__ = ["FIRST_GRAPHS", "graph_streams", "graph_streams_at_once", "graphs_at_once_error"]
 
 #: a recording's first graph messages tried for one that decodes with places
 FIRST_GRAPHS = 10
@@ -67,6 +67,14 @@ def graph_streams_at_once(
         if found and not _one_session(logset, topic, found, peek, tolerance):
             return topic, [_recording_path(logset, key) for key in found]
     return None
+
+
+def graph_streams(logset: Any, topics: Iterable[str]) -> frozenset[int]:
+    """The recordings of ``logset`` whose messages on the scene-graph ``topics`` span a time
+    another's overlap: graph streams at once of one session (after
+    :func:`graph_streams_at_once` found no other), whose graphs the map joins
+    (:class:`aion_cli.session_graphs.SessionGraphs`); empty when there are none."""
+    return frozenset(overlapping(logset.recording_times(topics)))
 
 
 def _one_session(

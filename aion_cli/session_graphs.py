@@ -1,0 +1,80 @@
+"""The graph of one scene-graph session that several robots log at once (``aion build
+robot1.mcap robot2.mcap``, each log carrying the session's graphs on one topic over times that
+overlap, :mod:`aion_cli.graph_owners` having found them of one session).
+
+Read as one stream, each robot's graph replaced the other's at every message: the places one
+robot's graph held and the other's not yet left the map's graph and came back, taking turns
+(two simulated robots of one morning: 10 of 220 detections ended in hash cells, against 3 in
+``aion merge`` of the robots' own maps). One session is one growing graph, so the map's graph
+is the union of each recording's latest graph (:func:`aion_cli.engine.graph_union.union_graphs`:
+a node while any robot's latest graph holds it, at the newest position). Recordings whose
+graphs overlap no other's (one robot's ``--split`` files, days) are one stream as before, a
+later graph replacing an earlier one: their graphs share one key here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from aion_cli.engine.types import GraphSnapshot
+
+__all__ = ["SessionGraphs", "same_graph"]
+
+#: the key of the recordings whose graphs overlap no other's: one stream
+_ONE_STREAM = -1
+
+
+class SessionGraphs:
+    """Each graph stream's latest graph and their union; ``streams``: the recordings whose
+    graph messages overlap another's in time (empty: one stream, every graph as it comes)."""
+
+    def __init__(self, streams: frozenset[int] = frozenset()) -> None:
+        self.streams = streams
+        self._latest: dict[int, GraphSnapshot] = {}  # in the order of their latest graphs
+        self._union: GraphSnapshot | None = None
+        self._made_of: tuple[int, ...] = ()  # the graphs the union was made of (ids)
+
+    def join(self, recording: int, snapshot: GraphSnapshot) -> GraphSnapshot:
+        """The map's graph once ``snapshot`` (a graph of ``recording``) came: ``snapshot``
+        itself with one stream, else the union of every stream's latest graph, with
+        ``snapshot``'s time, mesh and agents. A stream's graph that holds what its graph
+        before held (Hydra repeating an unchanged graph) stays the one before, in its place
+        in the order (a node both streams hold stays where the stream that last changed it
+        put it, not taking turns between them), and the union of the same graphs reuses
+        the union's layers, so the map sees the place layer it saw before (no node moved)."""
+        if not self.streams:
+            return snapshot
+        key = recording if recording in self.streams else _ONE_STREAM
+        before = self._latest.get(key)
+        if before is None or not same_graph(before, snapshot):
+            self._latest.pop(key, None)
+            self._latest[key] = snapshot
+        graphs = list(self._latest.values())
+        made_of = tuple(id(g) for g in graphs)
+        union = self._union
+        if union is None or made_of != self._made_of:
+            from aion_cli.engine.graph_union import union_graphs
+
+            union = self._union = union_graphs(graphs)
+            self._made_of = made_of
+        return replace(
+            snapshot, places=union.places, edges=union.edges, rooms=union.rooms,
+            buildings=union.buildings,
+        )  # fmt: skip
+
+
+def same_graph(a: GraphSnapshot, b: GraphSnapshot) -> bool:
+    """Whether ``a`` and ``b`` hold the same nodes (ids, positions, parents, labels of
+    places, rooms and buildings) and edges: one stream's graph repeated."""
+    import numpy as np
+
+    if a.places is b.places and a.edges is b.edges and a.rooms is b.rooms:
+        return a.buildings is b.buildings
+    layers = ((a.places, b.places), (a.rooms, b.rooms), (a.buildings, b.buildings))
+    return np.array_equal(a.edges, b.edges) and all(
+        np.array_equal(x.ids, y.ids) and np.array_equal(x.xyz, y.xyz)
+        and np.array_equal(x.parent, y.parent) and x.labels == y.labels
+        for x, y in layers
+    )  # fmt: skip
