@@ -372,3 +372,19 @@ def test_metadata_texts() -> None:
     assert _json_ok({b"{}", b'{"a": [1, 2.5]}', json.dumps({"é": 1}, ensure_ascii=False).encode()})
     for bad in (b"", b"{x", b"NaN", b'{"a": Infinity}', b'"\\ud800"', b"\xff"):
         assert not _json_ok({bad})
+
+
+def test_fields_read_keep_the_messages_recording() -> None:
+    """A graph message the stream checked as a whole update (``aion_cli.graph_thin``) goes on
+    with its fields read, and with the recording it came from (``RawMessage.recording``):
+    before, it came on as recording 0, so a build of robots at once could not tell whose
+    graph it was (:mod:`aion_cli.session_graphs`)."""
+    from aion_cli.formats.dsg_update_fast import DsgUpdateFields, FieldsRead
+    from aion_cli.formats.raw import from_recording, raw_message
+
+    fields = DsgUpdateFields(1, 2, memoryview(b"\x00"))
+    for recording in (0, 1, 3):
+        msg = raw_message("/hydra/backend/dsg", "hydra_msgs/msg/DsgUpdate", 5, b"", "cdr")
+        read = FieldsRead.of(from_recording(msg, recording), fields)
+        assert read.recording == recording
+        assert read.fields is fields
