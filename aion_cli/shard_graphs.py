@@ -48,14 +48,20 @@ def changing_part(
     """The first of ``parts`` after the first whose scene graph changes inside it (its
     first and last graph, at ``graph_times``, sorted, differ; ``tolerance``: the model's
     ``stable_move_tolerance``); None when none does or it cannot be told (the log is not
-    read by time, a graph does not decode)."""
+    read by time, a graph does not decode). Robots at once logging one session's graphs
+    (:func:`aion_cli.graph_owners.graph_streams`): the second part, whatever its graphs, as
+    the map's graph is the union of each robot's latest graph (:mod:`aion_cli.session_graphs`)
+    that a part built apart would start without the graphs before it."""
     if graph_times.size < 2 or len(parts) < 2 or not logset.skips_by_time():
         return None
     from aion_cli.build_options import build_topics
+    from aion_cli.graph_owners import graph_streams
 
     topics = build_topics(logset, opts).names("graph")
     if not topics:
         return None
+    if graph_streams(logset, topics):
+        return parts[1]
     for lo, hi in parts[1:]:
         inside = graph_times[(graph_times >= lo) & (graph_times < hi)]
         if inside.size < 2 or inside[0] == inside[-1]:

@@ -39,12 +39,14 @@ def write_robot(
     offset_s: int = 0,
     seconds: range = range(DURATION_S),
     moved: int | None = None,
+    quiet: range = range(0),
 ) -> Path:
     """A robot's log over ``seconds`` of the recording: its graph of ``places`` every minute,
     ``offset_s`` after the whole minute (robots' graphs interleave); the person ``track``
     standing at ``person`` (map frame) every second; the robot at rest at p0 on ``/tf``
     every 5 s. ``moved``: from that second on the graphs hold p1 moved 1 m along y (a later
-    graph of the same session)."""
+    graph of the same session); ``quiet``: seconds without the person (a pause a parallel
+    build may cut the log at)."""
     first, second = sorted(places)[:2]  # p0, p1
     later = dict(places)
     x, y, z = later[second]
@@ -82,6 +84,8 @@ def write_robot(
                     },
                     t,
                 )
+            if s in quiet:
+                continue
             half = t + S // 2
             writer.write(
                 "/tracks",

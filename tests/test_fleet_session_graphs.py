@@ -135,3 +135,20 @@ def test_union_of_graphs_the_newest_holds_whole_is_the_newest() -> None:
     union = union_graphs([old, new])
     assert union.places is new.places
     np.testing.assert_array_equal(union.edges, new.edges)
+
+
+def test_a_parallel_build_does_not_cut_the_robots_logs_in_time(tmp_path: Path) -> None:
+    """Logs a parallel build could cut at a quiet moment (nobody seen over the 10 s before
+    the second window): a time shard starting there would apply robot 1's graph alone (p0..p4)
+    until robot 2's next graph, and robot 2's person at p5 would go to a hash cell meanwhile.
+    Robots at once logging one session's graphs are built in sequence, as one pass."""
+    from tests.graph_stream_logs import assert_same_map
+
+    quiet = range(585, 600)
+    one = write_robot(tmp_path / "robot1.mcap", PART, PLACES[4][:2], track=1, quiet=quiet)
+    two = write_robot(tmp_path / "robot2.mcap", PLACES, PLACES[5][:2], track=1, offset_s=30,
+                      seconds=range(1100), quiet=quiet)
+    build_map(BuildOptions(logs=(one, two), output=tmp_path / "one.aion", workers=1))
+    report = build_map(BuildOptions(logs=(one, two), output=tmp_path / "two.aion", workers=2))
+    assert any(": not cut into time shards" in note for note in report.notes), report.notes
+    assert_same_map(tmp_path / "one.aion", tmp_path / "two.aion")
