@@ -13,14 +13,16 @@ span a time another such recording's overlap are graph streams at once. When the
 graphs with places are of one scene-graph session (``aion merge``'s lineage test,
 :func:`aion_cli.engine.rebind.graph_agreement`: more than half of the place ids both hold lie
 within ``bind_radius`` of each other: robots sharing one multi-robot graph, or one recording
-twice) they are one stream, as before the rule. Otherwise (another session's places, no
-shared id, a recording none of whose first :data:`FIRST_GRAPHS` graphs decodes with places)
-the build refuses them (:func:`graphs_at_once_error`) rather than let them take turns. The
-map the user wants is the one ``aion merge`` gives of each robot's own map (its lineage rule
-finds two sessions there too, and binds the flows to the newest map's graph); a build of both
-logs would have to pick one graph and rebind the other robot's flows as the merge does, which
-it cannot do while streaming. ``--graph FILE`` (one graph for the whole fleet) builds them at
-once, the logs' graphs ignored.
+twice) they are one session's graph, which the map takes as the union of each recording's
+latest graph (:func:`graph_streams`, :class:`aion_cli.session_graphs.SessionGraphs`).
+Otherwise (another session's places, no shared id, a recording none of whose first
+:data:`FIRST_GRAPHS` graphs decodes with places) the build refuses them
+(:func:`graphs_at_once_error`) rather than let them take turns. The map the user wants is
+the one ``aion merge`` gives of each robot's own map (its lineage rule finds two sessions
+there too, and binds the flows to the newest map's graph); a build of both logs would have
+to pick one graph and rebind the other robot's flows as the merge does, which it cannot do
+while streaming. ``--graph FILE`` (one graph for the whole fleet) builds them at once, the
+logs' graphs ignored.
 
 Recordings of one topic one after the other (one robot's logs: ``rosbag record --split``
 files, days) are one stream in time order, a later graph replacing an earlier one as in one

@@ -64,7 +64,9 @@ class FieldsRead(RawMessage):
         recording (:attr:`RawMessage.recording`: whose graph it is, for the union of one
         session's graphs that robots log at once, :mod:`aion_cli.session_graphs`)."""
         out = cls(msg.topic, msg.msgtype, msg.log_time_ns, msg.data, msg.encoding, fields)
-        return from_recording(out, msg.recording) if msg.recording else out
+        if msg.recording:
+            from_recording(out, msg.recording)  # in place
+        return out
 
 
 def _u32(data: memoryview, p: int) -> int:
