@@ -52,7 +52,7 @@ def changing_part(
     (:func:`aion_cli.graph_owners.graph_streams`): the second part, whatever its graphs, as
     the map's graph is the union of each robot's latest graph (:mod:`aion_cli.session_graphs`)
     that a part built apart would start without the graphs before it."""
-    if graph_times.size < 2 or len(parts) < 2 or not logset.skips_by_time():
+    if graph_times.size < 2 or len(parts) < 2:
         return None
     from aion_cli.build_options import build_topics
     from aion_cli.graph_owners import graph_streams
@@ -60,8 +60,10 @@ def changing_part(
     topics = build_topics(logset, opts).names("graph")
     if not topics:
         return None
-    if graph_streams(logset, topics):
+    if graph_streams(logset, topics):  # from the indexes, whether or not read by time
         return parts[1]
+    if not logset.skips_by_time():
+        return None
     for lo, hi in parts[1:]:
         inside = graph_times[(graph_times >= lo) & (graph_times < hi)]
         if inside.size < 2 or inside[0] == inside[-1]:
