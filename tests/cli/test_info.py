@@ -210,7 +210,7 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
         "scored_days": 0,
         "last_day_provisional": False,
         "observed_bins": [8],  # the office log's 20 minutes from Monday 08:00 UTC
-        "rules": 2,  # the choice rules the counts were taken under (engine.temporal.choice)
+        "rules": 3,  # the choice rules the counts were taken under (engine.temporal.choice)
         # no closed day: no weekday seen, nothing scored, the default calendar
         "calendar": {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 0},
     }

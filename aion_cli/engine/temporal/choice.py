@@ -33,7 +33,13 @@ at nine): with ``shape`` as every entry's default those rhythms were lost, and a
 hourly total over a robot's route fell behind a plain per-place hour-of-day profile
 (docs/EVALUATION.md). FreMEn is never borrowed: an entry's own sinusoids are not shrunk toward
 its parent, so only its own evidence may choose them. For directions the entry's default is
-``static`` (its histogram is already pooled toward the group's). Disabled families
+``static`` (its histogram is already pooled toward the group's), or ``profile`` when its
+group's members together forecast their directions better with their hourly histograms by
+more than ``family_margin`` nats and their daily gains over ``static``, every (member, day)
+one draw, pass the consistency test below (a group's default: the map's choice by the same
+rule, as for flows): those shrink toward the static histogram modulated by the
+group's hour (:mod:`~aion_cli.engine.temporal.group_shift`), so a place split over cells too
+sparse to win alone learns its hours from the group (rules 3, stop 68). Disabled families
 (``ModelConfig.families``) never win.
 
 The predictive spread: the Pearson dispersion φ = χ² / windows of the chosen flow family's
@@ -49,11 +55,12 @@ import numpy.typing as npt
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.types import F64, I64
 
-CHOICE_RULES = 2
+CHOICE_RULES = 3
 """The version of the rules that choose a family from the stored scores, recorded with a map's
 family counts (``aion info``): queries choose afresh, so a map counted under other rules may
 forecast with other families than its counts say. 1: before an entry's own time-varying family
-against a borrowed default needed consistent daily gains (2026-12-06); maps without the key."""
+against a borrowed default needed consistent daily gains (2026-12-06); maps without the key.
+2: before a group could lend its entries the ``profile`` direction family (stop 68)."""
 
 _DISPERSION_PRIOR = 10.0
 _FDR = 0.05
@@ -203,11 +210,38 @@ def choose_families(
             if not missing.any():
                 break
             blocked |= missing
-    # directions: entry against static
+    # directions: map -> group (static or profile) -> entry
     dstatic = params.direction.index("static")
     dc = None if dir_consistency is None else (*dir_consistency, dstatic)
-    direction = _choose(dir_score, np.full(e, dstatic, np.int64), dir_on, margin, dc)
+    lent = np.full(e, dstatic, np.int64)
+    if "profile" in params.direction and dir_on[params.direction.index("profile")]:
+        lendable = np.zeros_like(dir_on)
+        lendable[[dstatic, params.direction.index("profile")]] = True
+        pooled = _pooled_days(dir_score, dir_consistency, groups, n_groups)
+        at_map = [part.sum(axis=0, keepdims=True) for part in pooled]
+        map_dir = _choose(at_map[0], np.array([dstatic]), lendable, margin,
+                          None if dc is None else (at_map[1], at_map[2], dstatic))  # fmt: skip
+        group_dir = _choose(pooled[0], np.full(n_groups, map_dir[0]), lendable, margin,
+                            None if dc is None else (pooled[1], pooled[2], dstatic))  # fmt: skip
+        lent = group_dir[groups].astype(np.int64)
+    direction = _choose(dir_score, lent, dir_on, margin, dc)
     return flow, direction, int(map_flow[0])
+
+
+def _pooled_days(
+    scores: F64, consistency: tuple[F64, F64] | None, groups: I64, n_groups: int
+) -> tuple[F64, F64, F64]:
+    """Per group: its members' summed scores, squared daily gains and scored days, so that
+    :func:`_choose`'s consistency test on them takes every (member, day) gain as one draw
+    (a group lends ``profile`` only if its members' daily gains pass it together)."""
+    f = scores.shape[1]
+    g_scores = np.zeros((n_groups, f))
+    np.add.at(g_scores, groups, scores)
+    gain_sq, days = (np.zeros((n_groups, f)), np.zeros(n_groups))
+    if consistency is not None:
+        np.add.at(gain_sq, groups, consistency[0])
+        days = np.bincount(groups, consistency[1], minlength=n_groups).astype(np.float64)
+    return g_scores, gain_sq, days
 
 
 def dispersion(

@@ -49,9 +49,12 @@ def direction_day_scores(
     static = params.direction.index("static")
     day_score = np.zeros((candidates.size, len(params.direction)))
     # an entry with fewer directed detections than the time prior's weight cannot have a
-    # time-varying histogram far from its static one: its other families score as static
+    # time-varying histogram far from its static one, unless its group's hours shift it (a
+    # group of κ_G directed detections or more): its other families score as static
     # (the forecaster's sums of the same whole numbers)
     evidence = fc.directed >= fc.kappa_t
+    if fc.pool.shift is not None:
+        evidence |= fc.pool.shift.telling[fc.groups]
     rich = evidence[ce]
     pair_h, pair_t = h[cs], t_s[cs]  # the same arrays for every family (memoised FreMEn terms)
     counted = DetectionBins.of(directed)

@@ -66,6 +66,7 @@ import numpy as np
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.fremen_parts import BLOCK, FremenParts
+from aion_cli.engine.temporal.group_shift import hour_prior
 from aion_cli.engine.temporal.params import DIRECTION_ORDERS, TemporalParams
 from aion_cli.engine.temporal.pooling import (
     PoolStats,
@@ -338,6 +339,7 @@ class Forecaster(FremenParts):
         hist: F64 = self.histogram[e]  # a gathered copy, the caller's to keep
         if family == "static":
             return hist
+        hist = self.hour_prior(hist, e, h)
         kappa_t = self.kappa_t
         pseudo = self._pseudo_counts(family, e, h, t_s)
         denominator = row_sums(pseudo, keepdims=True) + kappa_t
@@ -372,13 +374,22 @@ class Forecaster(FremenParts):
             kappa_t = self.kappa_t
             pseudo = self._pseudo_counts(family, e, h, t_s, shared)
             denominator = row_sums(pseudo) + kappa_t
-            if scaled is None:  # histogram · κ_t, the first step of every family's value
-                scaled = self.histogram[e[pair], b]
+            if scaled is None:  # prior · κ_t, the first step of every family's value
+                if self.pool.shift is None:  # the static histogram
+                    scaled = self.histogram[e[pair], b]
+                else:  # modulated by the group's hour (its whole rows renormalised)
+                    scaled = self.hour_prior(self.histogram[e], e, h)[pair, b]
                 scaled *= kappa_t
             hist = scaled + pseudo[pair, b]  # a new array: ``scaled`` serves the next family
             hist /= denominator[pair]
             out.append(hist)
         return out
+
+    def hour_prior(self, static: F64, e: I64, h: I64) -> F64:
+        """π[P, B], what the time-varying families shrink toward at pairs: the entries'
+        static histograms ``static`` (gathered rows; a new array) times their
+        groups' hourly direction shift (:mod:`.group_shift`), or ``static`` as it is."""
+        return hour_prior(static, self.pool.shift, self.groups[e], h)
 
     def _pseudo_counts(
         self, family: str, e: I64, h: I64, t_s: F64, shared: dict[str, F64] | None = None

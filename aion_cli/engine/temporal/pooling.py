@@ -25,6 +25,7 @@ from aion_cli.engine.temporal.direction_prior import (
     sample_rows,
     time_prior,
 )
+from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hour_prior
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, unseen_bins
 from aion_cli.engine.types import F64, I64
@@ -58,6 +59,10 @@ class PoolStats:
     in them: a Saturday of a map of weekdays), bool[H], or None: an entry's ``profile`` takes
     its own counts and windows at the same hour of the kinds seen there
     (:func:`~aion_cli.engine.temporal.shape_prior.by_hour`), as the map's and groups' shapes do."""
+    shift: GroupShift | None = None
+    """The groups' hourly direction shift that an entry's time-varying direction histograms
+    shrink toward (:mod:`.group_shift`), or None: no group's directions keep to the hour (or
+    no time-varying direction family is enabled), and they shrink toward the static one."""
 
     @classmethod
     def of(
@@ -78,12 +83,17 @@ class PoolStats:
         b, h = params.bins, params.n_profile
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
+        timed = bool(params.direction_enabled[1:].any())  # families after ``static``
+        hourly = np.zeros((n_groups, b, h)) if timed else None
         directed_blocks = []
         glob = state.glob.profile[0]
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
-            block = rows_of(state.cnt_profile, r) if totals is None or counts is None else None
+            read = timed or totals is None or counts is None
+            block = rows_of(state.cnt_profile, r) if read else None
+            if hourly is not None:
+                hourly += group_hourly(block, g, n_groups, b)
             s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
             w_e = rows_of(state.obs.profile, r) + glob
             s_g += _group_sums(g, n_groups, s_e)
@@ -107,13 +117,16 @@ class PoolStats:
             return held, histograms[groups]
 
         kappa = entry_prior(params.config, directed_counts)
+        unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
+        shift = None
+        if hourly is not None:
+            shift = GroupShift.of(hourly, histograms, unseen, params.calendar.bins_per_day)
 
         def per_bin() -> tuple[F64, F64]:
-            return per_bin_directed(state, rows, *directed_counts(), kappa)
+            return per_bin_directed(state, rows, *directed_counts(), kappa, groups, shift)
 
         kappa_t = time_prior(params.config, per_bin)
-        unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
-        return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen)
+        return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen, shift)
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
@@ -205,20 +218,32 @@ def normalised(counts: F64) -> F64:
 
 
 def per_bin_directed(
-    state: TemporalState, rows: I64, directed: F64, parent: F64, kappa: float
+    state: TemporalState,
+    rows: I64,
+    directed: F64,
+    parent: F64,
+    kappa: float,
+    groups: I64 | None = None,
+    shift: GroupShift | None = None,
 ) -> tuple[F64, F64]:
     """The input of κ_t's estimate: N[(e, h), b], the directed detections of entry ``e``
-    (of ``rows``) in profile bin ``h``, and the entry's static histogram (``directed`` under
-    ``kappa`` pseudo-detections of ``parent``, as ``Forecaster.histogram``) on each of its
-    rows, for about ``MAX_ENTRIES`` of the entries with two directed detections or more,
-    chosen by their counts (any order of the entries gives the same rows)."""
+    (of ``rows``) in profile bin ``h``, and the prior its hour's histogram shrinks toward on
+    each of its rows: the entry's static histogram (``directed`` under ``kappa``
+    pseudo-detections of ``parent``, as ``Forecaster.histogram``), modulated by its group's
+    (``groups``) hourly ``shift`` when there is one (:func:`.group_shift.hour_prior`); for
+    about ``MAX_ENTRIES`` of the entries with two directed detections or more, chosen by
+    their counts (any order of the entries gives the same rows)."""
     b = directed.shape[1]
     tell = np.flatnonzero(directed.sum(axis=1) >= 2)
     if tell.size > MAX_ENTRIES:
         tell = tell[sample_rows(directed[tell], MAX_ENTRIES)]
     per_bin = np.asarray(rows_of(state.cnt_profile, rows[tell]), np.float64)[:, :b]
-    static = posterior(directed[tell], parent[tell], kappa)
-    return per_bin.transpose(0, 2, 1).reshape(-1, b), np.repeat(static, per_bin.shape[2], 0)
+    h = per_bin.shape[2]
+    static = np.repeat(posterior(directed[tell], parent[tell], kappa), h, 0)
+    if shift is not None and groups is not None:
+        hours = np.tile(np.arange(h, dtype=np.int64), tell.size)
+        static = hour_prior(static, shift, np.repeat(groups[tell], h), hours)
+    return per_bin.transpose(0, 2, 1).reshape(-1, b), static
 
 
 def posterior(counts: F64, prior: F64, kappa: float) -> F64:

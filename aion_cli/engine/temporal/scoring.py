@@ -20,8 +20,9 @@ summed in closed form). (The sum of λ over the many empty windows is taken in c
 profile bin, and for FreMEn from the day's Fourier sums wherever its lower
 bound shows the floor cannot bite; only the rest is evaluated window by window). An entry with
 fewer directed detections before the day than κ_t (``direction_time_prior``, or its estimate from
-the state before the day: ``Forecaster.kappa_t``) scores its time-varying
-direction families as its static one (their histograms cannot differ much from it;
+the state before the day: ``Forecaster.kappa_t``), in a group without an hourly direction shift
+of κ_G detections or more (:mod:`~aion_cli.engine.temporal.group_shift`), scores its
+time-varying direction families as its static one (their histograms cannot differ much from it;
 :mod:`~aion_cli.engine.temporal.direction_scoring` scores the directions). The
 accumulators then absorb the day (:mod:`~aion_cli.engine.temporal.absorption`). Candidates
 are scored in blocks of ``_ENTRIES``, each entry's pairs in their order, so the scores do not

@@ -1,0 +1,98 @@
+"""An hour's direction shift borrowed from the entry's group (issue 12, stop 68).
+
+When one place is split over several map cells, each cell holds too few directed detections
+an hour to learn that the place is walked east in the morning and west in the evening: its
+time-varying histogram stays near its static one. The cell's group (room or neighbourhood,
+:mod:`~aion_cli.engine.temporal.groups`) sees the whole place, so the time-varying direction
+families shrink toward the entry's static histogram *modulated by its group's hour*:
+
+    ĝ[g, h, b] = (C[g, h, b] + κ_G p[g, b]) / (C[g, h] + κ_G)     (the group's hour, shrunk)
+    m[g, h, b] = ĝ[g, h, b] / p[g, b]                              (its shift, 1 without one)
+    π[e, h, b] = h[e, b] m[g, h, b] / Σ_b' h[e, b'] m[g, h, b']    (the entry's prior there)
+
+with C the group's directed detections per profile bin (its entries' counts summed, whole
+numbers: exact in any order), p its static histogram (``PoolStats.histogram``) and h the
+entry's static one. The time-varying families then give (c_b + κ_t π_b) / (Σ c + κ_t) where
+they gave (c_b + κ_t h_b) / (Σ c + κ_t) (:mod:`.forecast`). A multiplicative shift keeps
+each entry's own directions: a cell of the group's east-west corridor takes the morning's
+east, a cell of its north-south one the morning's north.
+
+κ_G is the Dirichlet-multinomial estimate of :func:`.direction_prior.fitted_kappa` over the
+(group, profile bin) rows around their group's histogram, as κ_t is over an entry's. Where no
+group's directions keep to the hour the likelihood keeps rising to the top of the range: the
+map then has no shift (``None``) and every forecast is the one before (the static histogram
+is the prior, as it was). Nothing is stored: the shift is recomputed from the accumulators
+wherever the groups' shapes are, so continuation and merges stay exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from aion_cli.engine.row_sums import row_sums
+from aion_cli.engine.temporal.direction_prior import KAPPA_RANGE, TIME_KAPPA_LOW, fitted_kappa
+from aion_cli.engine.temporal.shape_prior import by_hour
+from aion_cli.engine.types import F64, I64
+
+_NO_SHIFT = KAPPA_RANGE[1] * 0.999
+"""κ_G at (the golden-section search's tolerance below) the top of its range: the groups'
+hours do not differ from their histograms, so there is no shift."""
+
+
+@dataclass(frozen=True)
+class GroupShift:
+    """The groups' hourly direction shift m[G, H, B] (module docstring), κ_G, and which
+    groups hold at least κ_G directed detections (whose shift can move an entry's prior)."""
+
+    ratio: F64
+    kappa: float
+    telling: npt.NDArray[np.bool_]
+
+    @classmethod
+    def of(
+        cls,
+        hourly: F64,
+        histogram: F64,
+        unseen: npt.NDArray[np.bool_] | None,
+        bins_per_day: int,
+    ) -> GroupShift | None:
+        """From C[g, b, h] (:func:`group_hourly`) and the groups' histograms p[g, b]; None
+        where κ_G says no group's hours differ (or too few (group, bin) rows tell)."""
+        g, b, h = hourly.shape
+        counts = by_hour(hourly, unseen, bins_per_day).transpose(0, 2, 1)  # [G, H, B]
+        rows = counts.reshape(-1, b)
+        parent = np.repeat(histogram, h, axis=0)
+        kappa = fitted_kappa(rows, parent, fallback=KAPPA_RANGE[1], low=TIME_KAPPA_LOW)
+        if kappa >= _NO_SHIFT:
+            return None
+        total = row_sums(rows, keepdims=True)
+        shrunk = (rows + kappa * parent) / (total + kappa)
+        ratio = np.divide(shrunk, parent, out=np.ones_like(shrunk), where=parent > 0)
+        return cls(ratio.reshape(g, h, b), kappa, counts.sum(axis=(1, 2)) >= kappa)
+
+
+def group_hourly(values: Any, groups: I64, n_groups: int, bins: int) -> F64:
+    """Σ of the entries' counts ``values[E, V, H]`` over each group, directed bins only:
+    float64[G, B, H] (whole numbers: the same sums in any order)."""
+    h = values.shape[2]
+    width = bins * h
+    keys = (groups[:, None] * width + np.arange(width, dtype=np.int64)).reshape(-1)
+    weights = np.asarray(values[:, :bins, :], np.float64).reshape(-1)
+    sums = np.bincount(keys, weights=weights, minlength=n_groups * width)
+    out: F64 = sums.astype(np.float64, copy=False).reshape(n_groups, bins, h)
+    return out
+
+
+def hour_prior(static: F64, shift: GroupShift | None, groups: I64, h: I64) -> F64:
+    """π[P, B]: each pair's static histogram ``static`` (a copy the caller may keep)
+    modulated by its group's shift at profile bin ``h`` and renormalised; ``static`` itself
+    without a shift."""
+    if shift is None:
+        return static
+    prior: F64 = static * shift.ratio[groups, h]
+    prior /= row_sums(prior, keepdims=True)
+    return prior
