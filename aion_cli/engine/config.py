@@ -140,8 +140,9 @@ class ModelConfig:
     pseudo-detections (``"auto"``: estimated from the map, ``temporal.direction_prior``)
     toward the parent's histogram (room, else the ``pool_size``-metre
     neighbourhood; then the map), time-varying histograms shrunk toward the entry's static
-    one with ``direction_time_prior`` pseudo-detections (``"auto"``: estimated from the
-    map's profile bins, ``temporal.direction_prior.time_prior``). Log-likelihoods floor
+    one, modulated by its group's hour (``temporal.group_shift``), with
+    ``direction_time_prior`` pseudo-detections (``"auto"``: estimated from the map's profile
+    bins, ``temporal.direction_prior.time_prior``). Log-likelihoods floor
     rates at ``rate_floor`` detections per window.
     Planning: edge cost ``d * (1 + (w_entropy*H + w_flow)*F + w_direction*c_d)`` (see
     ``engine.planning``: entropy counts as busy as the place is), flow normalised by

@@ -84,13 +84,16 @@ def test_a_corridor_turning_at_noon_is_forecast_as_well_as_its_hourly_histogram(
 ) -> None:
     """Three places, one map entry each, walked east before 13:00 and west after (0.8 of
     the walkers), two training weeks: the held-out week's heading NLL of aion's forecast is
-    no worse than each place's own hour-of-day histogram (add-0.5), and clearly better than
-    with the fixed prior of 50 (0.04 nats a detection or more)."""
+    no worse than each place's own hour-of-day histogram (add-0.5). With the fixed prior of
+    50 it was 0.04 nats a detection worse at stop 67; since stop 68 an hour's histogram
+    shrinks toward the static one modulated by its group's hour (here the place's own, the
+    one cell's neighbourhood: ``temporal.group_shift``), so 50 pseudo-detections of that
+    prior reach the hour too."""
     scenario = replace(SCENARIOS["weekly-1cell"], train_days=14)
     auto = run(scenario, tmp_path_factory.mktemp("auto"))
     fixed = run(replace(scenario, config="direction_time_prior = 50.0"),
                 tmp_path_factory.mktemp("fixed"))  # fmt: skip
     nll = auto["headings"]
     assert nll["aion"] <= nll["own hour-of-day headings"] + 0.005
-    assert nll["aion"] < fixed["headings"]["aion"] - 0.04
+    assert fixed["headings"]["aion"] <= nll["own hour-of-day headings"] + 0.005
     assert nll["aion"] > nll["true directions"]  # the floor: nothing beats it but by luck

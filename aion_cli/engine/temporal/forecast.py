@@ -50,10 +50,11 @@ Directions: p_map,b = (N_map,b + 1) / (N_map + B) (Laplace), p_g,b = (N_g,b + κ
 :mod:`.direction_prior`; κ = 0:
 the raw proportions, the parent's only where an entry has no directed detection); the
 time-varying families use pseudo-counts c_b(t) (profile: the entry's directed counts in the
-profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t h_e,b) / (Σ c + κ_t), κ_t =
+profile bin; FreMEn: max(0, λ_b(t)) × W[e,h]) and q_b = (c_b + κ_t π_e,h,b) / (Σ c + κ_t), κ_t =
 ``direction_time_prior`` (with ``"auto"``, the default: estimated from the entries' profile
-bins, :meth:`Forecaster.kappa_t`), so no
-probability falls below κ·κ_t·min_b p_map,b / ((N_e + κ)(Σ c + κ_t)) — a floor set by the
+bins, :meth:`Forecaster.kappa_t`), π_e,h the static histogram h_e modulated by the group's
+hourly shift (:mod:`~aion_cli.engine.temporal.group_shift`; h_e itself where the map has no
+shift), so no probability falls below κ_t·min_b π_e,h,b / (Σ c + κ_t) — a floor set by the
 counts, never zero.
 """
 

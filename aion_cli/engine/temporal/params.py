@@ -15,7 +15,8 @@ Direction families (the histogram of walking directions): ``static`` (the entry'
 histogram under a Dirichlet prior centred on its group's, itself centred on the map's),
 ``fremen1``, ``fremen2`` (per-bin FreMEn rates, at most :data:`DIRECTION_ORDERS` periods per
 bin) and ``profile`` (per-bin counts in the profile bin), both shrunk toward the static
-histogram with ``direction_time_prior`` pseudo-detections (κ_t; ``"auto"``: estimated from
+histogram modulated by the group's hour (:mod:`~aion_cli.engine.temporal.group_shift`) with
+``direction_time_prior`` pseudo-detections (κ_t; ``"auto"``: estimated from
 the map, :func:`~aion_cli.engine.temporal.direction_prior.time_prior`).
 """
 
