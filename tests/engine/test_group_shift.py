@@ -13,7 +13,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hour_prior
+from aion_cli.engine.temporal.group_shift import (
+    GroupShift,
+    group_hourly,
+    hour_prior,
+    hourly_priors,
+)
 from benchmarks.forecast_scenarios import SCENARIOS, run
 
 B, H = 8, 24
@@ -94,3 +99,17 @@ def test_a_place_split_over_cells_learns_its_hours(
     assert nll["aion"] < nll["aion static"] - 0.1
     assert nll["aion"] <= one["aion"] + 0.015
     assert nll["aion"] > nll["true directions"]
+
+
+def test_every_hours_prior_at_once_is_the_pairs_prior() -> None:
+    """κ_t's estimate reads the priors of every profile bin of its entries at once
+    (``hourly_priors``): the same bits as ``hour_prior`` at each (entry, bin) pair."""
+    rng = np.random.default_rng(6)
+    hourly = _hourly(True, 5, 30, rng)
+    shift = GroupShift.of(hourly, _histogram(hourly), None, H)
+    assert shift is not None
+    static = rng.dirichlet(np.ones(B), 7)
+    groups = rng.integers(0, 5, 7)
+    pairs = hour_prior(np.repeat(static, H, 0), shift, np.repeat(groups, H),
+                       np.tile(np.arange(H), 7))  # fmt: skip
+    assert np.array_equal(hourly_priors(static, shift, groups), pairs)

@@ -25,7 +25,7 @@ from aion_cli.engine.temporal.direction_prior import (
     sample_rows,
     time_prior,
 )
-from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hour_prior
+from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hourly_priors
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, unseen_bins
 from aion_cli.engine.types import F64, I64
@@ -238,12 +238,12 @@ def per_bin_directed(
     if tell.size > MAX_ENTRIES:
         tell = tell[sample_rows(directed[tell], MAX_ENTRIES)]
     per_bin = np.asarray(rows_of(state.cnt_profile, rows[tell]), np.float64)[:, :b]
-    h = per_bin.shape[2]
-    static = np.repeat(posterior(directed[tell], parent[tell], kappa), h, 0)
+    static = posterior(directed[tell], parent[tell], kappa)
     if shift is not None and groups is not None:
-        hours = np.tile(np.arange(h, dtype=np.int64), tell.size)
-        static = hour_prior(static, shift, np.repeat(groups[tell], h), hours)
-    return per_bin.transpose(0, 2, 1).reshape(-1, b), static
+        prior = hourly_priors(static, shift, groups[tell])
+    else:
+        prior = np.repeat(static, per_bin.shape[2], 0)
+    return per_bin.transpose(0, 2, 1).reshape(-1, b), prior
 
 
 def posterior(counts: F64, prior: F64, kappa: float) -> F64:
