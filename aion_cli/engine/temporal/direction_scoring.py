@@ -36,7 +36,8 @@ def direction_day_scores(
     """One day's direction scores of ``candidates``: float64[C, D] of Σ n_{w,b} log q_{d,b}(t_w)
     per direction family, and float64[C] of the directed detections scored; None when the
     day's pairs (``ce`` candidate rows, ``cs`` slots, ``cv`` value counts) hold no directed
-    detection. An entry with fewer directed detections before the day than κ_t scores its
+    detection. An entry with fewer directed detections before the day than κ_t, in a group
+    of fewer than κ_G (:mod:`~aion_cli.engine.temporal.group_shift`), scores its
     time-varying families as its static one."""
     b = params.bins
     directed = cv[:, :b]
