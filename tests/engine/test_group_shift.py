@@ -74,13 +74,15 @@ def test_a_group_whose_directions_do_not_keep_to_the_hour_gives_back_the_static(
 
 def test_group_sums_are_the_members_counts() -> None:
     """C[g, b, h] is the plain sum of each group's entries' directed counts (the last value
-    bin, detections without a heading, left out)."""
+    bin, detections without a heading, left out), over more entries than one chunk and with
+    counts held narrow (a query's), whose sums must not wrap."""
     rng = np.random.default_rng(5)
-    values = rng.integers(0, 5, (30, B + 1, H)).astype(np.uint16)
-    groups = rng.integers(0, 4, 30)
-    out = group_hourly(values, groups, 5, B)
+    values = rng.integers(0, 60_000, (300, B + 1, H)).astype(np.uint16)
+    groups = rng.integers(0, 4, 300)
+    rows = rng.permutation(300)[:290]  # some entries of the map, in any order
+    out = group_hourly(values, rows, groups[:290], 5, B)
     for g in range(5):
-        assert np.array_equal(out[g], values[groups == g, :B].sum(axis=0))
+        assert np.array_equal(out[g], values[rows[groups[:290] == g], :B].sum(axis=0))
 
 
 def test_a_place_split_over_cells_learns_its_hours(

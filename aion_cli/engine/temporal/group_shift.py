@@ -79,12 +79,13 @@ _CHUNK = 256
 """Entries gathered together by :func:`group_hourly` (a few hundred kB a chunk)."""
 
 
-def group_hourly(values: Any, groups: I64, n_groups: int, bins: int) -> F64:
-    """Σ of the entries' counts ``values[E, V, H]`` over each group, directed bins only:
-    float64[G, B, H] (whole numbers: the same sums in any order). The rows are taken in
-    group order, a chunk at a time, and each group's run in a chunk added by one
-    ``reduceat`` (half the time of one ``bincount`` over (group, bin, hour) keys on a map of
-    the 20-day benchmark log's size, and no whole-map temporaries)."""
+def group_hourly(values: Any, rows: I64, groups: I64, n_groups: int, bins: int) -> F64:
+    """Σ of the counts ``values[E, V, H]`` of entries ``rows`` over each group (``groups``,
+    one per row), directed bins only: float64[G, B, H] (whole numbers: the same sums in any
+    order). The rows are read in group order, a chunk at a time (no copy of the whole map's
+    counts), and each group's run in a chunk added by one ``reduceat`` (half the time of
+    one ``bincount`` over (group, bin, hour) keys on a map of the 20-day benchmark log's
+    size)."""
     h = values.shape[2]
     out: F64 = np.zeros((n_groups, bins, h))
     order = np.argsort(groups, kind="stable")
@@ -92,8 +93,8 @@ def group_hourly(values: Any, groups: I64, n_groups: int, bins: int) -> F64:
     for a in range(0, order.size, _CHUNK):
         rank = ranked[a : a + _CHUNK]
         starts = np.flatnonzero(np.concatenate(([True], rank[1:] != rank[:-1])))
-        rows = values[order[a : a + _CHUNK], :bins]
-        out[rank[starts]] += np.add.reduceat(rows, starts, axis=0, dtype=np.float64)
+        chunk = values[rows[order[a : a + _CHUNK]], :bins]
+        out[rank[starts]] += np.add.reduceat(chunk, starts, axis=0, dtype=np.float64)
     return out
 
 

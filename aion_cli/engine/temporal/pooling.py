@@ -90,10 +90,9 @@ class PoolStats:
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
-            read = timed or totals is None or counts is None
-            block = rows_of(state.cnt_profile, r) if read else None
+            block = rows_of(state.cnt_profile, r) if totals is None or counts is None else None
             if hourly is not None:
-                hourly += group_hourly(block, g, n_groups, b)
+                hourly += group_hourly(state.cnt_profile, r, g, n_groups, b)
             s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
             w_e = rows_of(state.obs.profile, r) + glob
             s_g += _group_sums(g, n_groups, s_e)
