@@ -246,3 +246,15 @@ def first_of_each(logset: Any, topics: list[str], n: int) -> dict[str, list[Any]
             close()
         short = [t for t in short if t in left]
     return out
+
+
+def tf_root(logset: Any) -> str | None:
+    """The one frame at the top of the log's TF tree (its first :data:`TF_SAMPLE` messages per
+    TF topic), as ``--suggest-mapping`` offers for ``frame_override``: turtlesim's ``world``;
+    None without TF, or when its frames hang from more than one root."""
+    from aion_cli.formats.tf_tree import root
+    from aion_cli.topics import select_topics
+
+    tf, _ = _tf_sample(logset, select_topics(logset.topics))
+    tops = {root(tf.edges, f) for f in tf.frames}
+    return tops.pop() if len(tops) == 1 else None

@@ -238,6 +238,7 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
     topic's type (:func:`formats.detections.suggest.suggest_mapping`)."""
     from aion_cli.formats.detections.suggest import refuse_service_events, suggest_mapping
     from aion_cli.formats.logs import open_logs
+    from aion_cli.frame_check import tf_root
     from aion_cli.topic_mappable import refuse_not_people
 
     with open_logs(paths, log_format) as logset:
@@ -245,7 +246,9 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
         refuse_service_events(info.topic, info.msgtype)
         refuse_not_people(logset, info)  # TF, a scene graph, images, point clouds
         store = logset.typestore(info.topic, info.msgtype, info.encoding)
-        return suggest_mapping(info.topic, info.msgtype, store, _sample(logset, info.topic))
+        frame = tf_root(logset) or "map"  # the frame a frame_override would name
+        sample = _sample(logset, info.topic)
+        return suggest_mapping(info.topic, info.msgtype, store, sample, frame)
 
 
 #: messages ``--suggest-mapping`` decodes to tell ids that number a message's items

@@ -328,12 +328,17 @@ def counts_items(sample: list[Any], array: str, id_path: str) -> bool:
 
 
 def suggest_mapping(
-    topic: str, msgtype: str, store: Typestore, sample: list[Any] | None = None
+    topic: str,
+    msgtype: str,
+    store: Typestore,
+    sample: list[Any] | None = None,
+    frame: str = "map",
 ) -> str:
     """A TOML mapping for ``topic`` carrying ``msgtype`` as ``store`` defines it (see the
     module docstring); :class:`ConfigError` when the type holds nothing usable as a
     position. ``sample``: a few decoded messages of the topic; when the chosen id numbers
-    the elements of each (:func:`counts_items`), no id is suggested."""
+    the elements of each (:func:`counts_items`), no id is suggested. ``frame``: the
+    ``frame_override`` suggested (the log's TF root where it has one)."""
     name = normalize_msgtype(msgtype)
     if name not in store.fielddefs:
         raise ConfigError(f"{topic}: the log has no definition of {name}")
@@ -426,8 +431,9 @@ def suggest_mapping(
         if not item_stamp:
             lines.append("# no header: detections take their message's log time")
         lines.append(
-            _line("frame_override", "map", "REQUIRED here: the frame the positions are in")
+            _line("frame_override", frame, "REQUIRED here: the frame the positions are in")
         )
     elif not header:
-        lines.append('# frame_override = "map"                 # optional: replaces their frames')
+        override = f"# frame_override = {_toml_string(frame)}"
+        lines.append(f"{override:<40} # optional: replaces their frames")
     return "\n".join(lines) + "\n"

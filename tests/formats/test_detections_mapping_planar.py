@@ -207,3 +207,26 @@ def test_a_suggested_mapping_reads_two_numbers_as_a_planar_position() -> None:
     np.testing.assert_array_equal(got.t_ns, [7 * 10**9 + 5] * 2)
     assert got.frame_names() == ["odom", "odom"]
     assert got.track_id.tolist() == [3, 8]
+
+
+def test_the_suggested_frame_override_is_the_logs_tf_root() -> None:
+    """turtlesim's poses carry no header, so the mapping needs a ``frame_override``: it used
+    to say "map" although the bag's TF tree hangs from ``world`` (read here with rosbags);
+    it now names that root."""
+    from rosbags.highlevel import AnyReader
+
+    from aion_cli.log_report import suggest
+    from tests.shared_data import real
+
+    bag = real("logs", "rosbagjs_fixtures", "example-bz2.bag")
+    parents, children = set(), set()
+    with AnyReader([bag]) as reader:
+        tf = [c for c in reader.connections if c.topic in ("/tf", "/tf_static")]
+        for conn, _, raw in reader.messages(connections=tf):
+            for t in reader.deserialize(raw, conn.msgtype).transforms:
+                parents.add(t.header.frame_id.lstrip("/"))
+                children.add(t.child_frame_id.lstrip("/"))
+    (top,) = parents - children
+    text = suggest([bag], None, "/turtle1/pose")
+    assert f'frame_override = "{top}"' in text
+    assert 'frame_override = "map"' not in text
