@@ -321,9 +321,8 @@ def command(
     from aion_cli.log_zone import build_zone, continued_zone
 
     zone_name = None if timezone is None else resolve_zone(timezone).name
-    zone_name, zone_notes, zone_warnings = build_zone(
-        zone_name, continued_zone(continue_from), logs
-    )
+    map_zone = continued_zone(continue_from)
+    zone_name, zone_notes, zone_warnings = build_zone(zone_name, map_zone, logs)
     observed = observed_spans(observed_text, zone_name, continue_from)
     options = BuildOptions(
         logs=logs,
@@ -350,8 +349,14 @@ def command(
         observed=observed,
         observed_typed=tuple(zip(observed_text, observed, strict=True)),
     )
+    from aion_cli.cli.build_summary import clock_of
+
     with _RichProgress(fmt == "json") as progress:
-        report = build_map(options, progress)
+        try:
+            report = build_map(options, progress)
+        except InputError as exc:  # its times on the map's clock, as the summary gives them
+            exc.message = clock_of(zone_name or map_zone or "UTC")(exc.message)
+            raise
     report.notes[:0] = [*zone_notes, *observed_notes(observed_text, observed, zone_name,
                                                      continue_from)]
     report.warnings[:0] = zone_warnings

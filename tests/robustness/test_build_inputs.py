@@ -436,3 +436,19 @@ def test_the_summary_prints_names_from_the_log_as_plain_text(tmp_path: Path) -> 
     assert "\x07" not in result.stderr
     assert "warning: /tr\\x1b[2Jacks: 60 of its 100 detections" in result.stderr
     assert "frames: [red]cam\\x07, map" in result.stderr
+
+
+def test_an_older_log_is_refused_with_times_on_the_maps_clock(tmp_path: Path) -> None:
+    """A map built with ``--tz Asia/Tokyo`` gives its summary's times on that clock; refusing
+    an older log it gave them in UTC. Now on the map's clock too: 08:00 UTC is 17:00+09:00."""
+    old = write_log(tmp_path / "old.mcap", walk(1200))
+    new = write_log(tmp_path / "new.mcap", walk(1200, start_s=7200))
+    target = tmp_path / "m.aion"
+    build_json(new, "-o", target, "--tz", "Asia/Tokyo")
+    result = run("build", old, "--map", target)
+    fails(
+        result,
+        "the detections of old.mcap start at 2026-11-23 17:00:00+09:00",
+        "m.aion has already closed every window before 2026-11-23 19:10:00+09:00",
+    )
+    assert " UTC" not in result.stderr
