@@ -136,7 +136,7 @@ def merge_map_files(
 ) -> MergeReport:
     """Merge the map files ``paths`` into ``out`` (see the module docstring); the report."""
     from aion_cli.build_report import NoProgress
-    from aion_cli.formats.mapfile import check_map_target, map_lock
+    from aion_cli.formats.mapfile import check_map_suffix, check_map_target, map_lock
 
     sink = progress or NoProgress()
     paths = [Path(p) for p in paths]
@@ -146,6 +146,7 @@ def merge_map_files(
         raise InputError("a merge needs at least two maps (or one part map)", hint=_HINT)
     _check_paths(paths, out)
     check_map_target(out)
+    check_map_suffix(out)  # -o merged.json: a new map named as another kind of file
     target, graph_notes = _target_graph(graph_file, nav_layer)
     report = MergeReport(out)
     report.notes.extend(graph_notes)  # a lenient read, a file named as the other format

@@ -166,6 +166,7 @@ class _Build(ReadStep):
         """The build, holding the output map's lock from start to end."""
         from aion_cli.formats.mapfile import (
             check_map_folder,
+            check_map_suffix,
             check_map_target,
             map_lock,
             read_manifest,
@@ -177,6 +178,7 @@ class _Build(ReadStep):
         if self.opts.continue_from is not None:  # the input first: without -o it is the
             read_manifest(self.opts.continue_from)  # output too, judged below as a target
         check_map_target(out)  # a device, FIFO or foreign file fails now, not after hashing
+        check_map_suffix(out)  # -o map.png: a new map named as a picture
         # Held from reading a continued map to writing the result: two builds extending the
         # same map would otherwise both start from the old map, and the later write would
         # silently drop the other build's logs.

@@ -80,6 +80,29 @@ def check_map_output(path: str | os.PathLike[str]) -> None:
     check_map_target(path)
 
 
+#: suffixes of the other files aion reads or writes (pictures, exports, reports, logs, configs):
+#: a map named so (``-o map.png``) is a slip a user would not see until opening it
+OTHER_SUFFIXES = frozenset({
+    ".png", ".svg", ".jpg", ".jpeg", ".pdf", ".json", ".csv", ".ply", ".pcd", ".html", ".mcap",
+    ".bag", ".db3", ".toml", ".yaml",
+})
+
+
+def check_map_suffix(path: str | os.PathLike[str]) -> None:
+    """Refuse (:class:`MapWriteError`) a map output named as another kind of file aion reads
+    or writes (:data:`OTHER_SUFFIXES`): ``aion build LOG -o map.png`` wrote a zip named
+    ``.png``. Any other name (``.aion``, none, ``.zip``) is the user's choice. Checked by the
+    commands that name a map from ``-o`` (build, merge), not by :func:`write_map`."""
+    p = Path(path)
+    if p.suffix.lower() in OTHER_SUFFIXES:
+        raise MapWriteError(
+            f"cannot write map {p}: {p.suffix} names another kind of file (a map is a .aion "
+            "zip)",
+            hint=f"name it {p.with_suffix('.aion').name} (pictures and other formats of a "
+            "map come from it with `aion export`)",
+        )
+
+
 def check_map_target(path: str | os.PathLike[str]) -> None:
     """Refuse a map output path that :func:`write_map` must not replace: everything
     :func:`check_map_path` refuses, and an existing regular file that is not an aion map

@@ -235,6 +235,29 @@ def test_build_output_must_be_a_map_or_new(office: Office, tmp_path: Path) -> No
     assert hidden(tmp_path) == []
 
 
+def test_a_map_named_as_another_kind_of_file_is_refused(office: Office, tmp_path: Path) -> None:
+    """``aion build LOG -o x.png`` wrote a map (a zip) named as a picture, without a word;
+    ``aion merge ... -o x.json`` likewise. Now exit 2 with the name a map takes, nothing
+    written; a name of no known kind (``.map``) is still the user's choice."""
+    from aion_cli.formats.mapfile import is_aion_map
+
+    log = write_log(tmp_path / "w.mcap", walk(20))
+    for name in ("x.png", "x.json", "x.CSV", "x.mcap"):
+        result = run("build", log, "-o", tmp_path / name)
+        assert result.exit_code == 2, result.stderr
+        assert_one_error(result.stderr, f"cannot write map {tmp_path / name}")
+        assert f"hint: name it {Path(name).stem}.aion" in result.stderr
+        assert not (tmp_path / name).exists()
+    one, two = office.copy_map(tmp_path / "a.aion"), office.copy_map(tmp_path / "b.aion")
+    result = run("merge", one, two, "-o", tmp_path / "m.json")
+    assert result.exit_code == 2, result.stderr
+    assert_one_error(result.stderr, "cannot write map", "m.json")
+    assert not (tmp_path / "m.json").exists()
+    result = run("build", log, "-o", tmp_path / "x.map")
+    assert result.exit_code == 0, result.stderr
+    assert is_aion_map(tmp_path / "x.map")
+
+
 def test_write_map_refuses_special_and_foreign_targets(tmp_path: Path) -> None:
     from aion_cli.formats.mapfile import MapWriteError, is_aion_map, read_map, write_map
 
