@@ -137,6 +137,9 @@ class BuildReport:
     #: --observed: the windows without a message its spans added (None without --observed;
     #: a parallel build adds its shards' up into one note, ``observed_spans.observed_note``)
     observed_added: int | None = None
+    #: whether those spans are the ones the logs record (aion convert --observed), not
+    #: --observed: the note then says the windows hold the logs' empty markers
+    observed_from_logs: bool = False
     #: --observed: where the windows its spans added begin, when before the first message
     declared_start_ns: int | None = None
     declared_end_ns: int | None = None  # and end, when after the last (a shard's: its own)

@@ -116,9 +116,12 @@ def fixed_sensor_windows(
         extra = declared_windows(declared, spans, delta, fill)
         extra = extra[times.inside_limits(extra * delta)]
         added = np.setdiff1d(extra, windows, assume_unique=True)
-        notes.append(observed_note(added.size, delta, len({path for path, _, _ in spans})))
+        from_logs = marks is not None and marks.size > 0  # the logs' spans, not --observed
+        files = len({path for path, _, _ in spans})
+        notes.append(observed_note(added.size, delta, files, from_logs))
         if report is not None:  # a parallel build adds its shards' up
             report.observed_added = int(added.size)
+            report.observed_from_logs = from_logs
             report.declared_start_ns = declared_start_ns(added, declared, delta)
             report.declared_end_ns = declared_end_ns(added, declared, delta)
         windows = np.union1d(windows, extra)

@@ -19,6 +19,7 @@ from aion_cli.engine.types import I64
 from aion_cli.fixed_sensor_text import time_text
 
 __all__ = [
+    "LOGS_OBSERVED_NOTE",
     "OBSERVED_NOTE",
     "declared_windows",
     "observed_note",
@@ -28,24 +29,30 @@ __all__ = [
 
 OBSERVED_NOTE = "--observed: "
 """How :func:`observed_note` starts (a parallel build's parent replaces its shards' notes)."""
+LOGS_OBSERVED_NOTE = "the observed spans the logs record: "
+"""How :func:`observed_note` starts for the spans the logs record (no ``--observed`` given)."""
 
 
-def observed_note(added: int, delta: int, files: int) -> str:
-    """The note of the windows without a message that ``--observed`` spans (or the spans the
-    logs record) made observed (``added`` windows of ``delta`` ns), the time between the logs
-    named only where there are logs apart (``files``: the log files read, a rosbag2 bag's
-    storage files one): one log's own declared span has no time between logs. None added: a
-    note that says so in words."""
+def observed_note(added: int, delta: int, files: int, from_logs: bool = False) -> str:
+    """The note of the windows without a message that ``--observed`` spans (or, ``from_logs``,
+    the spans the logs record: ``aion convert --observed``) made observed (``added`` windows
+    of ``delta`` ns), the time between the logs named only where there are logs apart
+    (``files``: the log files read, a rosbag2 bag's storage files one): one log's own
+    declared span has no time between logs. None added: a note that says so in words. The
+    logs' own spans are not the user's ``--observed``, and their windows hold the logs' empty
+    marker messages: the note says so rather than "without a message"."""
+    lead = LOGS_OBSERVED_NOTE if from_logs else OBSERVED_NOTE
+    message = "a message besides the logs' empty markers" if from_logs else "a message"
     if added == 0:  # "0 window(s) ... (0 s), the time between the logs included" said less
         return (
-            f"{OBSERVED_NOTE}every window the spans declare within the logs' time holds a "
-            "message already: they add none"
+            f"{lead}every window the spans declare within the logs' time holds {message} "
+            "already: they add none"
         )
-    between = ", the time between the logs included" if files > 1 else ""
-    return (
-        f"{OBSERVED_NOTE}{added:,} window(s) without a message taken as observed "
-        f"({time_text(added * delta)}){between}"
+    what = "window(s) with no message but the logs' empty markers" if from_logs else (
+        "window(s) without a message"
     )
+    between = ", the time between the logs included" if files > 1 else ""
+    return f"{lead}{added:,} {what} taken as observed ({time_text(added * delta)}){between}"
 
 
 def outside_logs_note(

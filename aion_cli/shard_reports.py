@@ -32,7 +32,7 @@ from aion_cli.graph_notes import (
     NO_GRAPH_NOTES,
     graph_counts_note,
 )
-from aion_cli.observed_spans import OBSERVED_NOTE, observed_note
+from aion_cli.observed_spans import LOGS_OBSERVED_NOTE, OBSERVED_NOTE, observed_note
 from aion_cli.stamp_warnings import FAR_STAMPS, OFF_STAMPS, stamp_warnings
 
 
@@ -126,8 +126,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
             else:
                 _add_nested(have, {k: v for k, v in info.items() if isinstance(v, int)})
         for line in p.notes:
-            if line.startswith((OBSERVED_NOTE, SILENT_NOTE)):  # added up below, one note as
-                continue  # one pass gives
+            if line.startswith((OBSERVED_NOTE, LOGS_OBSERVED_NOTE, SILENT_NOTE)):  # added up below,
+                continue  # one note as one pass gives
             if mixed and (line.startswith(NO_TRAJECTORY_NOTE) or UNPOSED_NOTE in line):
                 continue  # the logs beside the robot's: named in one note above
             if line not in out.notes and not line.startswith(GRAPH_COUNTS_NOTE):
@@ -152,7 +152,8 @@ def combine_reports(out: BuildReport, parts: list[BuildReport]) -> None:
         delta = next((p.fixed_windows[3] for p in parts if p.fixed_windows is not None), 0)
         out.observed_added = sum(added)
         files = len({path for p in parts for path, _, _ in p.recording_spans})  # a cut log: 1
-        out.notes.append(observed_note(out.observed_added, delta, files))
+        from_logs = any(p.observed_from_logs for p in parts)
+        out.notes.append(observed_note(out.observed_added, delta, files, from_logs))
     ends = [p.declared_end_ns for p in parts if p.declared_end_ns is not None]
     out.declared_end_ns = max(ends, default=None)  # the last shard's: where the map's reach ends
     silent = [p.silent_windows for p in parts if p.silent_windows is not None]

@@ -224,11 +224,11 @@ def test_two_logs_whose_spans_overlap_mark_their_shared_stamps_twice(
     for name, logs in (("two", ("a", "b")), ("one", ("ab",))):
         built = run_json("build", people, *(tmp_path / f"{k}.mcap" for k in logs), "-o",
                          tmp_path / f"{name}.aion", "--format", "json", "--workers", workers)
-        notes[name] = [n for n in built["notes"] if n.startswith("--observed: ")]
+        notes[name] = [n for n in built["notes"] if "window(s)" in n and "observed" in n]
         windows[name] = observed_windows(tmp_path / f"{name}.aion")
     assert notes["two"] == notes["one"] == [
-        "--observed: 9 window(s) without a message taken as observed (1.5 h), the time "
-        "between the logs included"
+        "the observed spans the logs record: 9 window(s) with no message but the logs' empty "
+        "markers taken as observed (1.5 h), the time between the logs included"
     ]
     assert windows["two"].max() == pytest.approx(4 - 1 / 30 + 9)
     assert windows["two"].tobytes() == windows["one"].tobytes()
@@ -252,8 +252,12 @@ def test_one_logs_own_declared_span_has_no_time_between_logs(tmp_path: Path, log
         assert converted.exit_code == 0, converted.stderr
         built.append(log)
     report = run_json("build", *built, "-o", tmp_path / "m.aion", "--format", "json")
-    (note,) = [n for n in report["notes"] if n.startswith("--observed: ")]
+    assert not [n for n in report["notes"] if n.startswith("--observed: ")]  # none given
+    (note,) = [n for n in report["notes"] if n.startswith("the observed spans the logs record")]
     # 08:10-11:20 is 19 windows a day, the one of 09:10 holding the walkers
-    head = f"--observed: {18 * logs} window(s) without a message taken as observed "
+    head = (
+        f"the observed spans the logs record: {18 * logs} window(s) with no message but the "
+        "logs' empty markers taken as observed "
+    )
     assert note.startswith(head), note
     assert note.endswith("the time between the logs included") is (logs == 2), note
