@@ -313,7 +313,9 @@ def command(
     console().print(
         f"wrote {markup_safe(summary.path)}: {counted(summary.detections, 'detection')} of "
         f"{counted(summary.tracks, 'track')} in {counted(summary.detection_messages, 'message')} "
-        f"over {span:,.0f} s"
+        # the empty ones the "observed:" line counts, so that the two add up
+        + (f"(and {summary.observed_messages:,} empty) " if summary.observed_messages else "")
+        + f"over {span:,.0f} s"
         + (" (without ids or orientations: aion build links them)" if drop_ids else "")
         + (f", {summary.graph_messages} scene-graph messages" if summary.graph_messages else ""),
         soft_wrap=True,
