@@ -67,6 +67,24 @@ def _seconds_text(seconds: float) -> str:
     return f"{seconds:,.1f} s{readable}"
 
 
+def _unread_text(report: dict[str, Any]) -> str:
+    """Where the messages a ROS reader cannot decode are: the warnings that name them, else
+    their topics (an MCAP scene aion exported: ``1 on /aion/scene (protobuf)``, for Foxglove,
+    whose warning is left out), else the topics table."""
+    from aion_cli.listing import first_few
+
+    if report["warnings"]:
+        return "see the warnings"
+    others = [
+        f"{t['count']:,} on {t['topic']} ({t['encoding']})"
+        for t in report["topics"]
+        if not t.get("readable", True)
+    ]
+    if not others:
+        return "the others: see the topics"
+    return f"the rest: {first_few(others, 3)}, which aion's ROS readers do not decode"
+
+
 def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
     """The table of a log report, every time of the logs on the clock of ``zone`` (the one
     a build follows: :func:`aion_cli.log_zone.build_zone`, or ``--tz``), which the header
@@ -89,8 +107,7 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
     held = sum(int(f["messages"]) for f in report["files"])
     messages = f"{report['messages']:,}"
     if held > report["messages"]:  # the rest on topics no ROS reader can decode (warnings)
-        see = "see the warnings" if report["warnings"] else "the others: see the topics"
-        messages = f"{messages} readable of {held:,} ({see})"
+        messages = f"{messages} readable of {held:,} ({_unread_text(report)})"
     read = report.get("verified", {}).get("messages_read")
     if read is not None:
         gone = report["messages"] - read

@@ -232,6 +232,20 @@ def test_info_on_an_exported_scene_says_what_it_is(office: Office, tmp_path: Pat
     said = " ".join(run("info", out).stderr.split())
     assert "(it is a scene aion exported, to open in Foxglove or RViz: one step, at " in said, said
     assert "--suggest-mapping" not in said, said
+    # its header said "2 readable of 3 (the others: see the topics)", and the topics did not
+    # say which: the one protobuf channel (Foxglove's SceneUpdate), which it now names
+    with out.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    stats = summary.statistics
+    assert stats is not None
+    (scene,) = [c for c in summary.channels.values() if c.message_encoding == "protobuf"]
+    n, total = stats.channel_message_counts[scene.id], stats.message_count
+    header = " ".join(run("info", out).stdout.split())
+    assert (
+        f"messages: {total - n} readable of {total} (the rest: {n} on {scene.topic} (protobuf), "
+        "which aion's ROS readers do not decode)" in header
+    ), header
     log = " ".join(run("info", office.log).stderr.split())
     assert "scene aion exported" not in log
     built = run("build", out, "-o", tmp_path / "x.aion")  # hinted --detections-topic /aion/...
