@@ -11,7 +11,11 @@ within the shared span are decoded, and so are the other file's messages of the 
 stretch of time; the two logs hold the same people when at least half of one's detections
 have one of the other's within :data:`NEAR_S` and :data:`NEAR_M` on each axis (same topic,
 same frame). Measured: Lincoln's two files 75 % and 85 % (either way round), ATC's train
-and test of 10:00 0.6 % and 5 %. Array work on a bounded sample.
+and test of 10:00 0.6 % and 5 %. Logs that share less than :data:`TOLERANCES_PER_OVERLAP`
+times :data:`NEAR_S` need evidence in proportion: a tolerance that short a stretch holds four
+times over, and a share twice what chance proximity gives there (the leg_tracker bags
+``positive_1`` and ``positive_2``, whose log times are their extraction's and share 0.27 s:
+63 % at 0.05 s, but 90 % by chance, so no warning). Array work on a bounded sample.
 """
 
 from __future__ import annotations
@@ -36,6 +40,12 @@ MAX_OTHER_MESSAGES = 20 * SAMPLE_MESSAGES
 #: how near in time (s) and on each axis (m) a detection of the other log is the same one
 NEAR_S = 0.5
 NEAR_M = 0.5
+#: the stretch of time compared holds at least this many time tolerances (else it is shorter)
+TOLERANCES_PER_OVERLAP = 4
+#: two logs hold the same people when at least this share of one's detections match...
+SAME_SHARE = 0.5
+#: ... and this many times the share chance proximity gives (``_shared_time_share``)
+ABOVE_CHANCE = 2.0
 #: pairs of detections compared at most (memory: about 100 bytes each)
 MAX_PAIRS = 2_000_000
 #: stamps are taken relative to this (2020) so that seconds keep sub-microsecond precision
@@ -78,11 +88,11 @@ def _detections(
     return rows[np.argsort(rows[:, 0], kind="stable")]
 
 
-def _near_share(a: F64, b: F64) -> float:
+def _near_share(a: F64, b: F64, near_s: float = NEAR_S) -> float:
     """The share of ``a``'s rows that have a row of ``b`` (both sorted by time) within
-    :data:`NEAR_S` in time and :data:`NEAR_M` on each axis, of the same source."""
-    lo = np.searchsorted(b[:, 0], a[:, 0] - NEAR_S, side="left")
-    hi = np.searchsorted(b[:, 0], a[:, 0] + NEAR_S, side="right")
+    ``near_s`` in time and :data:`NEAR_M` on each axis, of the same source."""
+    lo = np.searchsorted(b[:, 0], a[:, 0] - near_s, side="left")
+    hi = np.searchsorted(b[:, 0], a[:, 0] + near_s, side="right")
     n = hi - lo
     if n.sum() > MAX_PAIRS:  # a dense stretch: compare its first rows only
         keep = int(np.searchsorted(np.cumsum(n), MAX_PAIRS, side="right"))
@@ -110,20 +120,45 @@ def same_people(logset: Any, o: Overlap, adapter_of: AdapterOf) -> bool | None:
     a = _detections(first, adapter_of, o.topics)
     b = _detections(_read(logset, j, topics, span, MAX_OTHER_MESSAGES), adapter_of, o.topics)
     share = _shared_time_share(a, b)
-    return None if share is None else share >= 0.5
+    return None if share is None else _same(*share)
 
 
-def _shared_time_share(a: F64, b: F64) -> float | None:
+def _same(share: float, chance: float) -> bool:
+    """Whether a match ``share`` says two logs (or topics) hold the same people: at least
+    :data:`SAME_SHARE`, and :data:`ABOVE_CHANCE` times the ``chance`` share."""
+    return share >= SAME_SHARE and share >= ABOVE_CHANCE * chance
+
+
+def _shared_time_share(a: F64, b: F64) -> tuple[float, float] | None:
     """The larger :func:`_near_share` either way round, each against the other where both
-    have detections (the other may start later, or a sample end sooner); None when there
-    is no such time."""
+    have detections (the other may start later, or a sample end sooner), and the share
+    chance proximity gives there. Over a stretch of :data:`TOLERANCES_PER_OVERLAP` times
+    :data:`NEAR_S` or more, time tells detections apart: the tolerance is :data:`NEAR_S`
+    and chance 0. A shorter stretch (logs that share 0.3 s: two excerpts of one recording,
+    their log times the extraction's) would match any detection of the one to any of the
+    other nearby: the tolerance is a :data:`TOLERANCES_PER_OVERLAP`-th of it, and chance
+    the share with ``b``'s times turned round by half the stretch (within it), so that no
+    detection meets its own twin: people standing or walking in one place match so too, a
+    copy's detections that move do not. None when there is no such time."""
     if len(a) == 0 or len(b) == 0:
         return None
     t0, t1 = max(a[0, 0], b[0, 0]) - NEAR_S, min(a[-1, 0], b[-1, 0]) + NEAR_S
     a, b = a[(a[:, 0] >= t0) & (a[:, 0] <= t1)], b[(b[:, 0] >= t0) & (b[:, 0] <= t1)]
     if len(a) == 0 or len(b) == 0:
         return None
-    return max(_near_share(a, b), _near_share(b, a))
+    start = min(a[0, 0], b[0, 0])
+    length = max(a[-1, 0], b[-1, 0]) - start
+    near_s = min(NEAR_S, length / TOLERANCES_PER_OVERLAP)
+    if near_s == 0:  # one instant: nothing tells a twin from a neighbour
+        return None
+    share = max(_near_share(a, b, near_s), _near_share(b, a, near_s))
+    if near_s == NEAR_S:  # long enough for time to tell
+        return share, 0.0
+    turned = b.copy()  # half the stretch later, the end's detections wrapped to its start
+    turned[:, 0] = start + (b[:, 0] - start + length / 2) % (length + near_s)
+    turned = turned[np.argsort(turned[:, 0], kind="stable")]
+    chance = max(_near_share(a, turned, near_s), _near_share(turned, a, near_s))
+    return share, chance
 
 
 def topic_twin_warnings(logset: Any, topics: list[str], adapter_of: AdapterOf) -> list[str]:
@@ -150,8 +185,9 @@ def topic_twin_warnings(logset: Any, topics: list[str], adapter_of: AdapterOf) -
     named = [t for t in topics if t in rows and len(rows[t])]
     for i, a in enumerate(named):
         for b in named[i + 1 :]:
-            share = _shared_time_share(rows[a], rows[b])
-            if share is not None and share >= 0.5:
+            shares = _shared_time_share(rows[a], rows[b])
+            if shares is not None and _same(*shares):
+                share = shares[0]
                 out.append(
                     f"{a} and {b} hold the same people at the same times and places ({share:.0%} "
                     f"of one's detections have one of the other's within {NEAR_S:g} s and "
