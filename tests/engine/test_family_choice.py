@@ -256,3 +256,37 @@ def test_fremen_rows_change_no_entry_that_did_not_choose_fremen() -> None:
         params, scores, directions, groups, 1, (gain_sq, days), fremen_rows=np.zeros(2, bool)
     )
     assert [flow[c] for c in without] == ["static", "static"]
+
+
+def test_a_group_lends_the_profile_direction_only_on_two_scored_days() -> None:
+    """Twenty entries of one group, each entry's ``profile`` directions 2 nats a day above
+    ``static`` (1 nat each alone, under the 3-nat margin: no entry leaves ``static`` on its
+    own). Over two scored days each, every (member, day) gain the same, the group's 40 nats pass
+    the consistency test and it lends ``profile`` to all twenty. Over one scored day the same
+    20 nats are one day's evidence however many members show it: nothing is lent, as an entry
+    with one scored day keeps ``static`` (before the rule, Lincoln's two-day split lent
+    ``profile`` on its first day and its heading NLL fell behind static's)."""
+    from aion_cli.engine.config import ModelConfig
+    from aion_cli.engine.temporal.choice import choose_families
+    from aion_cli.engine.temporal.params import TemporalParams
+
+    params = TemporalParams(ModelConfig())
+    direction = params.direction
+    static, profile = direction.index("static"), direction.index("profile")
+    flow = np.zeros((20, len(params.flow)))
+    groups = np.zeros(20, np.int64)
+    lent = {}
+    for days, gain_a_day in ((2.0, 1.0), (1.0, 1.0)):
+        scores = np.full((20, len(direction)), -100.0)
+        scores[:, static] = 0.0
+        scores[:, profile] = days * gain_a_day
+        gain_sq = np.zeros_like(scores)
+        gain_sq[:, profile] = days * gain_a_day**2
+        # the t-test needs spread: one member's days differ a little
+        gain_sq[0, profile] += 0.01
+        _, chosen, _ = choose_families(
+            params, flow, scores, groups, 1, None, (gain_sq, np.full(20, days))
+        )
+        lent[days] = {direction[c] for c in chosen}
+    assert lent[2.0] == {"profile"}
+    assert lent[1.0] == {"static"}

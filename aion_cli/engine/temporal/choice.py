@@ -233,7 +233,12 @@ def _pooled_days(
 ) -> tuple[F64, F64, F64]:
     """Per group: its members' summed scores, squared daily gains and scored days, so that
     :func:`_choose`'s consistency test on them takes every (member, day) gain as one draw
-    (a group lends ``profile`` only if its members' daily gains pass it together)."""
+    (a group lends ``profile`` only if its members' daily gains pass it together).
+
+    A group none of whose members has two scored days counts none: many members' gains on one
+    day are one day's evidence, and one day shows no consistency, for a group as for an entry
+    (Lincoln trained on two days, the second pending: lent ``profile`` on the first day's
+    score, its held-out heading NLL was 1.3886 against static's 1.3876)."""
     f = scores.shape[1]
     g_scores = np.zeros((n_groups, f))
     np.add.at(g_scores, groups, scores)
@@ -241,6 +246,9 @@ def _pooled_days(
     if consistency is not None:
         np.add.at(gain_sq, groups, consistency[0])
         days = np.bincount(groups, consistency[1], minlength=n_groups).astype(np.float64)
+        most = np.zeros(n_groups)
+        np.maximum.at(most, groups, consistency[1])
+        days = np.where(most >= 2, days, 0.0)
     return g_scores, gain_sq, days
 
 
