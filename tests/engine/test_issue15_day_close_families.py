@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from aion_cli.engine.temporal import direction_prior
 from aion_cli.engine.temporal.absorption import _profile_keys
 from aion_cli.engine.temporal.direction_prior import (
     MAX_ENTRIES,
@@ -122,7 +123,7 @@ def test_profile_keys_of_a_day_without_counts() -> None:
     assert inverse.size == 0
 
 
-def test_a_sampled_kappa_reads_each_kept_rows_own_parent() -> None:
+def test_a_sampled_kappa_reads_each_kept_rows_own_parent(monkeypatch: pytest.MonkeyPatch) -> None:
     """κ from more telling rows than ``MAX_ENTRIES`` is κ from exactly the rows the sample
     keeps, each with its own parent histogram (clipped where it has zeros): the parents are
     gathered for the kept rows only (issue 15, stop 68)."""
@@ -141,10 +142,12 @@ def test_a_sampled_kappa_reads_each_kept_rows_own_parent() -> None:
     counts = np.array(draws, dtype=np.float64)
     tell = np.flatnonzero(counts.sum(axis=1) >= 2)
     assert tell.size > MAX_ENTRIES
-    kept = tell[sample_rows(counts[tell], MAX_ENTRIES)]
-    assert MIN_ENTRIES <= kept.size <= MAX_ENTRIES  # the second estimate samples nothing
+    kept = tell[sample_rows(counts[tell], MAX_ENTRIES, parent[tell])]
+    assert MIN_ENTRIES <= kept.size < tell.size
     assert np.unique(group[kept]).size == 3
     whole = fitted_kappa(counts, parent)
+    # about MAX_ENTRIES are kept (2,114 here): the second estimate samples nothing
+    monkeypatch.setattr(direction_prior, "MAX_ENTRIES", kept.size)
     assert whole == fitted_kappa(counts[kept], parent[kept])
     # and the rows' parents matter: the same rows with the parents shifted by one row differ
     assert whole != fitted_kappa(counts[kept], np.roll(parent[kept], 1, axis=0))

@@ -184,7 +184,7 @@ def _fitted_kappa_before(counts: np.ndarray, parent: np.ndarray) -> float:
     p = np.clip(np.asarray(parent, np.float64)[tell], 1e-12, None)
     n = n[tell]
     if c.shape[0] > dp.MAX_ENTRIES:
-        keep = dp.sample_rows(c, dp.MAX_ENTRIES)
+        keep = dp.sample_rows(c, dp.MAX_ENTRIES, np.asarray(parent, np.float64)[tell])
         c, p, n = c[keep], p[keep], n[keep]
     row, col = np.nonzero(c)
     pairs, pair_times = np.unique(c[row, col] + 1j * p[row, col], return_counts=True)

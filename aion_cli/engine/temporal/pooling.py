@@ -235,7 +235,7 @@ def per_bin_directed(
     b = directed.shape[1]
     tell = np.flatnonzero(directed.sum(axis=1) >= 2)
     if tell.size > MAX_ENTRIES:
-        tell = tell[sample_rows(directed[tell], MAX_ENTRIES)]
+        tell = tell[sample_rows(directed[tell], MAX_ENTRIES, parent[tell])]
     per_bin = np.asarray(rows_of(state.cnt_profile, rows[tell]), np.float64)[:, :b]
     static = posterior(directed[tell], parent[tell], kappa)
     if shift is not None and groups is not None:
