@@ -62,8 +62,12 @@ def _observed_table(manifest: Manifest) -> tuple[Any, Any] | None:
 
 
 def hours_of(manifest: Manifest, per_day: int) -> list[int]:
-    """The in-day bins the map observed on some kind of day (empty: not listed)."""
-    return sorted({b % per_day for b in observed_bins(manifest.families)})
+    """The in-day bins the map observed on some kind of day (empty: not listed); a bin past
+    the profile's is left out, as :func:`hour_observed` leaves it out (bin 58 of a map of
+    weekdays and weekends is no 10:00)."""
+    calendar = calendar_of(manifest.config, manifest.timezone)
+    limit = 1 << 20 if calendar is None else calendar.n_bins
+    return sorted({b % per_day for b in observed_bins(manifest.families) if b < limit})
 
 
 def observed_bins(families: Mapping[str, Any]) -> list[int]:

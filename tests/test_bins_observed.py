@@ -63,3 +63,16 @@ def test_the_map_zone_tells_the_kind_of_day_and_older_maps_say_nothing() -> None
     assert observed_hours(junk.families, junk.config, None) == (
         "weekdays 09:00-10:00; weekends none (UTC)"
     )
+
+
+def test_the_hours_named_as_observed_leave_out_a_bin_past_the_profile() -> None:
+    """The forecast notes name the hours a map observed (``hours_of``) beside the hour no
+    log observed (``hour_observed``): both leave bin 58 out of a map of weekdays and
+    weekends, so the note on Monday 10:00 does not say the map observed 10:00 too."""
+    from aion_cli.bins_observed import hours_of
+    from aion_cli.forecast_notes import forecast_notes
+
+    junk = _map("day_weekend", [9, 48 + 10])
+    assert hours_of(junk, 24) == [9]
+    notes = " ".join(forecast_notes(junk, MONDAY + 10 * HOUR_NS))
+    assert "10:00-11:00 (UTC) on any day (the map observed 09:00-10:00)" in notes
