@@ -35,28 +35,14 @@ from aion_cli.merging import merge_map_files
 from aion_cli.pipeline import BuildOptions, build_map
 from tests.cli.logdata import PLACES, sym
 from tests.graph_stream_logs import assert_same_map
-from tests.test_fleet_session_graphs import PART
+from tests.test_fleet_session_graphs import PART, live_entries
 
 #: robot 2 numbering its person track 1, as robot 1 does (every tracker counts from 0 or 1)
 SAME_TRACK = replace(tf.ROBOT2, track=tf.ROBOT1.track)
 
 
-def _entries(path: Path) -> dict[str, np.ndarray]:
-    """The map's live entries (node id, position, counts per direction bin and no-direction)
-    in node-id then position order."""
-    entries = load_map(path).state.entries
-    rows = entries.live_rows()
-    counts = np.column_stack([entries.counts[rows], entries.nodir[rows]])
-    order = np.lexsort((entries.xyz[rows][:, 1], entries.xyz[rows][:, 0], entries.node_id[rows]))
-    return {
-        "node_id": entries.node_id[rows][order],
-        "xyz": entries.xyz[rows][order],
-        "counts": counts[order],
-    }
-
-
 def _assert_same_entries(a: Path, b: Path) -> None:
-    want, got = _entries(a), _entries(b)
+    want, got = live_entries(a), live_entries(b)
     np.testing.assert_array_equal(got["node_id"], want["node_id"])
     np.testing.assert_allclose(got["xyz"], want["xyz"], rtol=0, atol=1e-9)
     np.testing.assert_allclose(got["counts"], want["counts"], rtol=0, atol=1e-9)
@@ -155,7 +141,7 @@ def test_graph_robot_joining_in_the_open_window(tmp_path: Path) -> None:
         state = load_map(maps[name]).state
         assert state.graph is not None
         assert sorted(np.asarray(state.graph.places.ids).tolist()) == places, name
-        got = _entries(maps[name])
+        got = live_entries(maps[name])
         total = got["counts"].sum(axis=1)
         assert total[got["node_id"] == sym("p", 5)].sum() == on_p5, name
         assert total.sum() == 2 * graphs.DURATION_S, name

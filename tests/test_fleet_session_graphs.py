@@ -34,7 +34,7 @@ def _robots(folder: Path) -> tuple[Path, Path]:
     return one, two
 
 
-def _entries(path: Path) -> dict[str, np.ndarray]:
+def live_entries(path: Path) -> dict[str, np.ndarray]:
     """The map's live entries: node id, position, counts per direction bin (no-direction
     last), in node-id then position order."""
     entries = load_map(path).state.entries
@@ -64,7 +64,7 @@ def test_the_map_holds_the_sessions_growing_graph(tmp_path: Path) -> None:
         np.asarray(state.graph.places.xyz)[np.argsort(ids)],
         [PLACES[k] for k in sorted(PLACES)],
     )
-    got = _entries(out)
+    got = live_entries(out)
     held = got["counts"].sum(axis=1) > 0
     assert got["node_id"][held].tolist() == [sym("p", 4), sym("p", 5)]
     assert got["counts"][held].sum(axis=1).tolist() == [DURATION_S, DURATION_S]
@@ -78,11 +78,11 @@ def test_the_map_equals_the_map_on_the_sessions_whole_graph(tmp_path: Path) -> N
     build_graph(PLACES, EDGES, ROOMS).save(str(graph_file))
     build_map(BuildOptions(logs=(one, two), output=tmp_path / "file.aion", workers=1,
                            graph_file=graph_file))
-    want = _entries(tmp_path / "file.aion")
+    want = live_entries(tmp_path / "file.aion")
     for k, logs in enumerate(((one, two), (two, one))):
         out = tmp_path / f"fleet{k}.aion"
         build_map(BuildOptions(logs=logs, output=out, workers=1))
-        got = _entries(out)
+        got = live_entries(out)
         for name in want:
             np.testing.assert_array_equal(got[name], want[name], err_msg=name)
 

@@ -76,15 +76,16 @@ def day_sums(day: DayWindows, h: I64, n_bins: int) -> F64:
     return np.stack([observed.astype(np.float64), rho, rho * rho, per_unit])
 
 
-def add_sums(a: F64, b: F64) -> F64:
+def add_sums(a: F64, b: F64, what: str = "day-level") -> F64:
     """The sums of two maps (or a map and a day): added, a map's empty sums (a map read
-    before the member existed: shape ``(4, 0)``) taking the other's."""
+    before the member existed: shape ``(4, 0)``) taking the other's. ``what`` names the sums
+    in the error for shapes that differ (the week sums share this rule)."""
     if a.size == 0:
         return b.copy()
     if b.size == 0:
         return a
     if a.shape != b.shape:
-        raise ValueError(f"day-level sums of shapes {a.shape} and {b.shape} cannot be added")
+        raise ValueError(f"{what} sums of shapes {a.shape} and {b.shape} cannot be added")
     out: F64 = a + b
     return out
 

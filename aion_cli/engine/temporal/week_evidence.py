@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from aion_cli.engine.temporal.calendar import Calendar, weekday_of
+from aion_cli.engine.temporal.day_level import add_sums as add_map_sums
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.shape_prior import (
     overdispersion,
@@ -73,15 +74,8 @@ def empty_sums(bins_per_day: int) -> F64:
 
 def add_sums(a: F64, b: F64) -> F64:
     """The sums of two maps: added; a map's empty sums (read before the member existed:
-    shape ``(4, 0)``) take the other's."""
-    if a.size == 0:
-        return b.copy()
-    if b.size == 0:
-        return a
-    if a.shape != b.shape:
-        raise ValueError(f"week sums of shapes {a.shape} and {b.shape} cannot be added")
-    out: F64 = a + b
-    return out
+    shape ``(4, 0)``) take the other's (the day-level sums' rule, one place)."""
+    return add_map_sums(a, b, what="week")
 
 
 def week_bins(calendar: Calendar, h: I64, utc_s: F64) -> I64:
