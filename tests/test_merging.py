@@ -119,7 +119,7 @@ def test_the_output_manifest_accounts_for_every_log_and_map(tmp_path: Path) -> N
     assert manifest.timezone == "UTC"
     assert set(manifest.families) == {
         "flow", "direction", "reconciled", "scored_windows", "scored_days",
-        "last_day_provisional", "observed_bins", "rules",
+        "last_day_provisional", "observed_bins", "rules", "calendar",
     }
     # the merged map observed the hours either input observed, and no other
     inputs = [read_manifest(p)["families"]["observed_bins"] for p in (a, b)]
