@@ -64,9 +64,11 @@ def read_head(
     if size <= 0 or head.compression not in ("", "zstd", "lz4") or size > limits.max_chunk_bytes:
         return None
     parts = _index_parts(f, size_of_file, index)
-    if parts is None or not _last_droppable(parts, wanted, unread_channels, unread_times):
-        return None  # most chunks end with a message that is needed: decided in a few us
+    if not parts:
+        return None
     channel, log_time, offset = _entries(parts)
+    if not _last_droppable(channel, log_time, offset, wanted, unread_channels, unread_times):
+        return None  # most chunks end with a message that is needed: decided in a few us
     order = np.argsort(offset, kind="stable")
     channel, log_time, offset = channel[order], log_time[order], offset[order]
     if offset.size == 0 or np.any(offset[1:] <= offset[:-1]) or int(offset[-1]) >= size:
@@ -173,21 +175,26 @@ def _index_parts(f: IO[bytes], size: int, index: Any) -> IndexParts | None:
 
 
 def _last_droppable(
-    parts: IndexParts, wanted: set[int], unread_channels: set[int], unread_times: npt.NDArray[Any]
+    channel: npt.NDArray[np.int64],
+    log_time: npt.NDArray[np.int64],
+    offset: npt.NDArray[np.int64],
+    wanted: set[int],
+    unread_channels: set[int],
+    unread_times: npt.NDArray[np.int64],
 ) -> bool:
-    """Whether the chunk's last message (the largest offset its index lists) may be left
-    unread: on a channel not wanted, or named by the hint at a listed time."""
-    if not parts:
-        return False
-    ends = [int(p["offset"].max()) for _, p in parts]
-    k = int(np.argmax(ends))
-    channel, entries = parts[k]
-    if channel not in wanted:
+    """Whether the chunk's last message (the largest offset its index lists; :func:`_entries`'
+    arrays, not empty) may be left unread: on a channel not wanted, or named by the hint at a
+    listed time. One ``argmax`` over the entries of every channel, then Python on that one
+    entry: it was a maximum per channel, an ``argmax`` over their list and numpy calls on
+    one-element arrays, about 45,000 of the 683,000 instructions of a :func:`read_head` call
+    on a chunk of the 1-hour 5,000-place stream (callgrind, stop 69)."""
+    last = int(offset.view(np.uint64).argmax())  # the index's own unsigned offsets
+    c = int(channel[last])
+    if c not in wanted:
         return True
-    if channel not in unread_channels:
+    if c not in unread_channels:
         return False
-    t = np.asarray(entries["log_time"][np.argmax(entries["offset"])], np.int64).reshape(1)
-    return bool(_listed(t, unread_times)[0])
+    return bool(_listed(log_time[last : last + 1], unread_times)[0])
 
 
 def _entries(

@@ -425,3 +425,48 @@ def test_a_chunk_of_a_left_out_graph_alone_is_not_read_at_all(
     hinted = _stream(pairs, UnreadHint(frozenset({"/dsg"}), np.array(graphs, np.int64)))
     assert [t for _, t, _ in hinted] == graphs
     assert len(reads) == chunks
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(st.integers(0, 4), st.lists(st.integers(0, 2**64 - 1), min_size=0, max_size=6)),
+        min_size=1,
+        max_size=4,
+    ),
+    st.sets(st.integers(0, 4)),
+    st.sets(st.integers(0, 4)),
+    st.integers(0, 3),
+)
+def test_the_last_message_is_the_largest_offset_of_any_channel_first_listed_on_ties(
+    channels: list[tuple[int, list[int]]], wanted: set[int], unread: set[int], seed: int
+) -> None:
+    """Whether a chunk's last message may be left unread is decided on the entry of the
+    largest offset its index lists, of any channel (the first listed when two share it; the
+    offsets read as the index's unsigned 64-bit numbers), found here by a plain scan: a
+    channel not wanted, or one of the hint at a time it lists."""
+    from aion_cli.formats.recorded import _INDEX_ENTRY
+
+    rng = np.random.default_rng(seed)
+    parts = []
+    for cid, offsets in channels:
+        if not offsets:
+            continue  # (the index's reader keeps channels with entries only)
+        entries = np.zeros(len(offsets), _INDEX_ENTRY)
+        entries["offset"] = offsets
+        entries["log_time"] = rng.integers(0, 4, len(offsets))
+        parts.append((cid, entries))
+    if not parts:
+        return
+    times = np.array([0, 2], np.int64)
+    flat = [
+        (int(o), cid, int(t))
+        for cid, p in parts
+        for t, o in zip(p["log_time"], p["offset"], strict=True)
+    ]
+    top = max(o for o, _, _ in flat)
+    _, cid, t = next(e for e in flat if e[0] == top)
+    expected = cid not in wanted or (cid in unread and t in (0, 2))
+    channel, log_time, offset = mcap_partial._entries(parts)
+    got = mcap_partial._last_droppable(channel, log_time, offset, wanted, unread, times)
+    assert got == expected
