@@ -381,6 +381,59 @@ def profile_build(path: Path, top: int = 25, dump: Path | None = None) -> str:
     return buf.getvalue()
 
 
+def sample_build(path: Path, every_s: float = 0.002, least: float = 0.01) -> str:
+    """Wall-clock samples of one build of ``path``: every ``every_s`` a helper thread reads
+    each other thread's Python stack (``sys._current_frames``) and counts its functions
+    (inclusive: once per sample wherever they are on the stack) and the innermost one (own
+    time; numpy's C calls count for the Python function calling them). Unlike cProfile, no
+    cost per call is added, so Python-heavy parts are not inflated; but waits (for the GIL,
+    for I/O) count as much as work. Shares of each thread's samples, ``least`` and above."""
+    import collections
+    import sys
+    import threading
+
+    out = path.with_suffix(".sample.aion")
+    inclusive: collections.Counter[tuple[str, str]] = collections.Counter()
+    own: collections.Counter[tuple[str, str]] = collections.Counter()
+    samples: collections.Counter[str] = collections.Counter()
+    main, done = threading.get_ident(), threading.Event()
+
+    def sampler() -> None:
+        me = threading.get_ident()
+        while not done.wait(every_s):
+            for tid, frame in sys._current_frames().items():
+                if tid == me:
+                    continue
+                thread = "main thread" if tid == main else "other threads"
+                samples[thread] += 1
+                names = []
+                f: Any = frame
+                while f is not None:
+                    names.append(f"{Path(f.f_code.co_filename).name}:{f.f_code.co_name}")
+                    f = f.f_back
+                own[(thread, names[0])] += 1
+                inclusive.update((thread, name) for name in set(names))
+
+    helper = threading.Thread(target=sampler, daemon=True)
+    helper.start()
+    t0 = time.process_time()
+    try:
+        build(path, out)
+    finally:
+        done.set()
+        helper.join()
+        out.unlink(missing_ok=True)
+    lines = [f"build of {path.name}: {time.process_time() - t0:.2f} s CPU, samples {dict(samples)}"]
+    for thread in ("main thread", "other threads"):
+        for label, counts in (("inclusive", inclusive), ("own", own)):
+            lines.append(f"## {thread}, {label}")
+            for (t, name), n in counts.most_common():
+                share = n / max(samples[thread], 1)
+                if t == thread and share >= least:
+                    lines.append(f"{100 * share:6.1f} %  {name}")
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
     import argparse
 
@@ -391,10 +444,18 @@ if __name__ == "__main__":
     parser.add_argument("--places", type=int, default=5000, help="graph stream: places")
     parser.add_argument("--seconds", type=float, default=3600.0, help="graph stream: length")
     parser.add_argument("--dump", type=Path, default=None, help="also write raw .prof files")
+    parser.add_argument("--sample", choices=("ratio", "graphs"), default=None,
+                        help="print wall-clock stack samples of the 5-per-message or the "
+                        "graph-stream build (no cost per call, unlike --profile)")
     parser.add_argument("--only", choices=("ratio", "graphs", "map", "memory"), default=None,
                         help="one part (graphs: the stream of --places / --seconds)")
     args = parser.parse_args()
-    if args.profile == "ratio":
+    if args.sample is not None:
+        if args.sample == "graphs":
+            print(sample_build(graph_logs(args.places, args.seconds)[0]))
+        else:
+            print(sample_build(ratio_log(5, 3_001, 2) if args.quick else ratio_log(5, 62_501, 20)))
+    elif args.profile == "ratio":
         log = ratio_log(5, 3_001, 2) if args.quick else ratio_log(5, 62_501, 20)
         print(profile_build(log, dump=args.dump))
     elif args.profile == "graphs":
