@@ -191,6 +191,20 @@ def test_build_small() -> None:
     assert [t["met"] for t in table][-1] is None  # memory not judged below 1 GB of log
 
 
+def test_build_samples_small() -> None:
+    """``bench_build --sample``: the stacks of a tiny build, sampled, name the build's own
+    functions among the main thread's, with shares of its samples."""
+    from benchmarks import bench_build
+    from benchmarks.build_logs import ratio_log
+
+    text = bench_build.sample_build(ratio_log(3, 200, 1))
+    main = text.split("## main thread, inclusive\n")[1].split("##")[0].splitlines()
+    assert any(line.endswith("pipeline.py:build_map") for line in main)
+    shares = [float(line.split("%")[0]) for line in main]
+    assert shares == sorted(shares, reverse=True)
+    assert all(0 < share <= 100 for share in shares)
+
+
 def test_time_shards_small() -> None:
     """Issue 17's time-shard row at a tiny size: the one-day log is cut in two and the
     2-worker build gives the sequential build's map."""
