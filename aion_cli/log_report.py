@@ -136,7 +136,8 @@ def add_frames(
 def _own_scene(report: dict[str, Any]) -> None:
     """An MCAP file ``aion export --format mcap`` wrote is a scene, not a log with a topic aion
     cannot read: its ``/aion/scene`` (protobuf, for Foxglove) and ``/aion/markers`` (for RViz)
-    say what they hold rather than be warned of as "not ROS" or skipped as generic markers."""
+    say what they hold rather than be warned of as "not ROS" or skipped as generic markers
+    (listed in ``cannot_read``, offered as the ``mapping_example``)."""
     from aion_cli.formats.scene_mcap import MARKER_TOPIC, SCENE_TOPIC, is_scene_mcap
 
     if not report["files"] or not all(is_scene_mcap(Path(f["path"])) for f in report["files"]):
@@ -147,6 +148,9 @@ def _own_scene(report: dict[str, Any]) -> None:
     }
     for topic in report["topics"]:
         topic["why"] = said.get(topic["topic"], topic["why"])
+    report["cannot_read"] = [t for t in report["cannot_read"] if t.split(" (")[0] not in said]
+    if report.get("mapping_example") in said:
+        report["mapping_example"] = None
     skipped = f": topic {SCENE_TOPIC} skipped ("
     report["warnings"] = [w for w in report["warnings"] if skipped not in w]
 

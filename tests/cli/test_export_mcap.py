@@ -18,6 +18,7 @@ from mcap_ros2.decoder import DecoderFactory as Ros2Decoders
 import aion_cli as aion
 from aion_cli.timeparse import parse_time, resolve_zone
 from tests.cli.conftest import Office, assert_one_line_error, run, run_json
+from tests.shared_data import real
 
 TIMES = ["2026-01-12 07:00", "2026-01-12 08:00", "2026-01-12 09:00"]
 UTC = resolve_zone("UTC")
@@ -256,6 +257,25 @@ def test_info_on_an_exported_scene_says_what_it_is(office: Office, tmp_path: Pat
     asked = run("predict", out)  # said 'scene.mcap is a log: build a map from it first'
     assert asked.exit_code == 2
     assert "hint: scene.mcap is a scene aion exported from a map: give that map" in asked.stderr
+
+
+def test_info_json_on_an_exported_scene_lists_no_topic_it_cannot_read(
+    office: Office, tmp_path: Path
+) -> None:
+    """``aion info scene.mcap --format json`` listed aion's own ``/aion/markers`` under
+    ``cannot_read`` and offered it as the ``mapping_example`` while the table said the file is
+    an exported scene; a recorded log's generic markers stay under ``cannot_read``."""
+    out = tmp_path / "scene.mcap"
+    assert run("export", office.map, "--historical", "--format", "mcap", "-o", out).exit_code == 0
+    report = run_json("info", out, "--format", "json")
+    assert "/aion/markers" in {t["topic"] for t in report["topics"]}
+    assert report["cannot_read"] == []
+    assert report["mapping_example"] is None
+    assert report["will_use"]["detections"] == []
+    bag = real("logs", "leg_tracker", "positive_2_extracted.bag")  # a recorded log's markers
+    recorded = run_json("info", bag, "--format", "json")
+    markers = "/visualization_marker_array (visualization_msgs/msg/MarkerArray)"
+    assert markers in recorded["cannot_read"]
 
 
 def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path: Path) -> None:
