@@ -183,23 +183,41 @@ def _outside(
 ) -> str | None:
     """A note when ``t_ns`` lies before the map's data or over a week after it; the data's
     days are given in the map's zone (``zone``, UTC when None), as ``info`` shows them."""
+    far = far_from_data(start_ns, end_ns, t_ns, zone)
+    if far is None:
+        return None
+    text = f"this time is {far}"
+    before = start_ns is not None and t_ns < int(start_ns)
+    if static:
+        return text
+    text += ": the forecast repeats the rhythm the map learnt"
+    return text if before else text + " and knows nothing of what changed since"
+
+
+def data_days(start_ns: int, end_ns: int, zone: str | None = None) -> str:
+    """The days of a map's data in ``zone`` (UTC when None): ``2026-01-05 to 2026-01-09``,
+    one date for a day's (the span ends before ``end_ns``)."""
+    start, end = int(start_ns), int(end_ns)
+    first, last = words.day(start, zone), words.day(max(start, end - 1), zone)
+    return first if first == last else f"{first} to {last}"
+
+
+def far_from_data(
+    start_ns: int | None, end_ns: int | None, t_ns: int, zone: str | None = None
+) -> str | None:
+    """``"47 weeks after the map's data (2026-01-05 to 2026-01-09)"`` when ``t_ns`` lies
+    before the map's data or over a week after it (:data:`FAR_AFTER_NS`), its days in the
+    map's zone ``zone``; None otherwise, and for a map without data."""
     if start_ns is None or end_ns is None:
         return None
     start, end = int(start_ns), int(end_ns)
     if start <= t_ns <= end + FAR_AFTER_NS:
         return None
     before = t_ns < start
-    # the span ends before end
-    first, last = words.day(start, zone), words.day(max(start, end - 1), zone)
-    text = (
-        f"this time is {words.duration(start - t_ns if before else t_ns - end)} "
-        f"{'before' if before else 'after'} the map's data "
-        f"({first if first == last else f'{first} to {last}'})"
+    return (
+        f"{words.duration(start - t_ns if before else t_ns - end)} "
+        f"{'before' if before else 'after'} the map's data ({data_days(start, end, zone)})"
     )
-    if static:
-        return text
-    text += ": the forecast repeats the rhythm the map learnt"
-    return text if before else text + " and knows nothing of what changed since"
 
 
 def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str | None:

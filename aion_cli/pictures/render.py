@@ -131,6 +131,28 @@ def _mark_unobserved(
     ]
 
 
+def _name_span(loaded: LoadedMap, times: Sequence[int | None], titles: list[str]) -> list[str]:
+    """The title of one time naming what the picture shows beside the map's data: as
+    observed, the days of the data (``as observed (historical), 2026-01-05 to 2026-01-09
+    UTC``); a forecast before them or over a week after them (``aion export`` without
+    ``--time`` draws now), how far, on a line of its own
+    (:func:`~aion_cli.forecast_notes.far_from_data`). A series, or a map that does not record
+    its span, keeps its titles."""
+    from aion_cli.forecast_notes import data_days, far_from_data
+    from aion_cli.manifest import Manifest
+
+    raw = dict(getattr(loaded, "manifest", None) or {})
+    raw.setdefault("state", {})
+    manifest = Manifest.from_dict(raw)
+    start, end, zone = manifest.start_ns, manifest.end_ns, manifest.timezone
+    if len(times) != 1 or start is None or end is None:
+        return titles
+    if times[0] is None:
+        return [f"{titles[0]}, {data_days(start, end, zone)} {zone or 'UTC'}"]
+    far = far_from_data(start, end, int(times[0]), zone)
+    return titles if far is None else [f"{titles[0]}\n{far}"]
+
+
 def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> str:
     """``"office.aion: Mon 2026-01-12 06:00 to 20:00 UTC, 8 times"`` (the day once when the
     series stays in one day)."""
@@ -168,7 +190,7 @@ def render_map_png(
         paths = [PathLine(np.asarray(path_xyz, dtype=np.float64), "planned path", PATH_GREEN)]
     fig = topdown_figure(
         [scene_at(loaded, t_ns)],
-        _mark_unobserved(loaded, [t_ns], [time_title(t_ns, zone)]),
+        _name_span(loaded, [t_ns], _mark_unobserved(loaded, [t_ns], [time_title(t_ns, zone)])),
         suptitle=title,
         paths=[paths],
         dpi=dpi,
@@ -229,7 +251,7 @@ def export_png(
         if on_frame is not None:
             on_frame()
     titles = [time_title(times[0], zone)] if len(times) == 1 else _panel_titles(times, zone)
-    titles = _mark_unobserved(loaded, times, titles)
+    titles = _name_span(loaded, times, _mark_unobserved(loaded, times, titles))
     fig = topdown_figure(
         scenes,
         titles,

@@ -16,6 +16,7 @@ from aion_cli.pictures.png_mark import PNG_MAGIC
 from tests.cli.conftest import (
     Office,
     assert_one_line_error,
+    figure_texts,
     kept_figures,
     run,
     run_json,
@@ -312,3 +313,24 @@ def test_the_axes_name_the_frame_the_map_is_in(
     assert _axis_labels(replace(loaded, manifest=unknown), tmp_path / "c.png", monkeypatch) == {
         ("x (m)", "y (m)")
     }
+
+
+def test_a_picture_names_what_it_shows_beside_the_map_s_days(
+    sample_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion export MAP --format png`` without ``--time`` draws the forecast now, and its
+    title was today's date alone, with nothing to say the sample's data (Monday 2026-01-05 to
+    Friday 2026-01-09, samples/README.md) lies months before; ``--historical``'s title did not
+    name those days either. Both name them now; a time within a week of the data does not."""
+    days = "the map's data (2026-01-05 to 2026-01-09)"
+
+    def texts(*args: str) -> str:
+        out = tmp_path / "map.png"
+        (said,) = figure_texts(monkeypatch, "export", sample_map, *args, "-o", out)
+        return said
+
+    assert f"after {days}" in texts("--format", "png")  # now: after 2026-01-16
+    assert f"before {days}" in texts("--time", "2025-12-01 08:40", "--tz", "UTC")
+    assert "7 weeks after" in texts("--time", "2026-02-27 08:40", "--tz", "UTC", "--format", "png")
+    assert "as observed (historical), 2026-01-05 to 2026-01-09 UTC" in texts("--historical")
+    assert "map's data" not in texts("--time", "2026-01-12 08:40", "--tz", "UTC")
