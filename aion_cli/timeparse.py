@@ -377,10 +377,26 @@ def _parse_unix(text: str, zone: Zone, current: datetime) -> int | None:
         raise _past_nanoseconds(text, decimals)
     if abs(value) > Decimal(10) ** 11:
         raise TimeFormatError(
-            f"{text!r} is beyond year 5000 as UNIX seconds",
-            "append 'ns' for nanoseconds (e.g. 1795420200000000000ns)",
+            f"{text!r} is beyond year 5000 as UNIX seconds", _finer_unit_hint(value)
         )
     return int(value * NS_PER_S)
+
+
+def _finer_unit_hint(value: Decimal) -> str:
+    """The hint for a number too large for UNIX seconds: the coarsest unit that makes it a
+    time before year 5000 (a JavaScript ``Date.now()`` is milliseconds, where
+    appending 'ns' would read 1970), named with the time in seconds and in nanoseconds."""
+    for unit, scale in (("milliseconds", 10**3), ("microseconds", 10**6)):
+        seconds = value / scale
+        if abs(seconds) <= Decimal(10) ** 11:
+            ns = int(value * (NS_PER_S // scale))
+            return (
+                f"as UNIX {unit} it is {seconds.normalize():f} seconds: give that, or "
+                f"{ns}ns"
+            )
+    if value == value.to_integral_value():
+        return f"as UNIX nanoseconds, append 'ns': {int(value)}ns"
+    return "append 'ns' for nanoseconds (e.g. 1795420200000000000ns)"
 
 
 def _parse_relative(text: str, zone: Zone, current: datetime) -> int | None:

@@ -439,3 +439,23 @@ def test_an_offset_alone_that_disagrees_with_the_times_own_is_refused() -> None:
     for text in ("now -12", "+2h -05"):  # a number after "now": no zone, an error as before
         with pytest.raises(TimeFormatError, match="cannot read the time"):
             parse_time(text, BERLIN, NOW)
+
+
+@pytest.mark.parametrize(("unit", "scale"), [("milliseconds", 10**3), ("microseconds", 10**6)])
+def test_a_time_in_milliseconds_is_refused_with_a_hint_that_reads_it_so(
+    unit: str, scale: int
+) -> None:
+    """``--time 1795422600000`` (JavaScript's ``Date.now()``, milliseconds) was refused with
+    the hint "append 'ns' for nanoseconds", which reads it as 1970-01-01 00:29:55 UTC; the
+    hint names the unit it is in and the two forms of that time, each read back as it."""
+    expected = ns(2026, 11, 23, 8, 30)
+    text = str(expected // S * scale)
+    with pytest.raises(TimeFormatError) as info:
+        parse_time(text, UTCZ, NOW)
+    hint = info.value.hint or ""
+    assert f"as UNIX {unit} it is {expected // S} seconds" in hint, hint
+    assert parse_time(str(expected // S), UTCZ, NOW) == expected
+    assert f"{expected}ns" in hint, hint
+    with pytest.raises(TimeFormatError) as whole_ns:  # nanoseconds without their unit
+        parse_time(str(expected), UTCZ, NOW)
+    assert f"append 'ns': {expected}ns" in (whole_ns.value.hint or "")
