@@ -19,6 +19,7 @@ from aion_cli.cli.convert_checks import (
 from aion_cli.cli.convert_notes import (
     HOME_ZONES,
     note_utc_times,
+    read_on_a_clock,
     warn_fast_walkers,
     warn_spans_without_detections,
     warn_stray_times,
@@ -369,8 +370,7 @@ def command(
             f"map whose days and hours of the day are {zone.name}'s without --tz"
         )
     elif tz is None:
-        from aion_cli.timeparse import is_unix_time
-
-        on_clock = [t for t in observed_text if not all(map(is_unix_time, t.split("..")))]
+        on_clock = [t for t in observed_text if any(map(read_on_a_clock, t.split("..")))]
+        start_on_clock = start_text is not None and read_on_a_clock(start_text)
         if not from_zero:  # the note above says what to give: --start
-            note_utc_times(layout, output, start_text is not None, bool(on_clock))
+            note_utc_times(layout, output, start_on_clock, bool(on_clock))

@@ -50,6 +50,25 @@ def note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> No
         note(f"{layout}:{read}")
 
 
+def read_on_a_clock(text: str) -> bool:
+    """Whether the time ``text`` (an option's, already read once) names a wall-clock time the
+    zone places (``2026-01-05 12:00``, ``tomorrow 12:00``), not an instant no zone changes: a
+    UNIX time, ``now`` or relative to it (``-2h``), a time with its offset or zone
+    (``2026-01-05T12:00+01:00``). Read in two zones at one fixed moment, it differs."""
+    from datetime import UTC, datetime
+
+    from aion_cli.errors import AionError
+    from aion_cli.timeparse import parse_time, resolve_zone
+
+    moment = datetime(2026, 1, 5, 12, tzinfo=UTC)
+    try:
+        return parse_time(text, resolve_zone("UTC"), moment) != parse_time(
+            text, resolve_zone("+05:00"), moment
+        )
+    except AionError:  # a form only its span reads (an end of a clock alone): on a clock
+        return True
+
+
 #: where each layout's dataset was recorded, and its zone: the hours of the day a map of it
 #: means are local ones (ATC's 09:00-21:00 are Osaka's, 00:00-12:00 UTC)
 HOME_ZONES = {
