@@ -306,7 +306,8 @@ def plan_png(
     goal are named (``kitchen (p117)``; default: their place ids). ``observed`` False (the
     departure's hour no day observed: ``hour_observed``) adds the table's mark,
     :data:`~aion_cli.note_words.EXTRAPOLATED`, under the title, as the costs in the
-    legend come from extrapolated flows."""
+    legend come from extrapolated flows; a departure far from the map's data says how far
+    (:func:`_name_span`)."""
     from aion_cli.engine.node_ids import node_label
     from aion_cli.note_words import EXTRAPOLATED
     from aion_cli.pictures.plan import DrawnRoute, plan_figure
@@ -323,6 +324,7 @@ def plan_png(
     title = f"{start} to {goal}, departing {time_title(routes.depart_ns, zone)}"
     if observed is False:  # a line of its own: the panel's title is not wrapped
         title += f"\n{EXTRAPOLATED}"
+    (title,) = _name_span(loaded, [routes.depart_ns], [title])  # a departure far from the data
     fig = plan_figure(
         scene_at(loaded, routes.depart_ns),
         drawn(routes.temporal),

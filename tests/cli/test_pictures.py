@@ -334,3 +334,7 @@ def test_a_picture_names_what_it_shows_beside_the_map_s_days(
     assert "7 weeks after" in texts("--time", "2026-02-27 08:40", "--tz", "UTC", "--format", "png")
     assert "as observed (historical), 2026-01-05 to 2026-01-09 UTC" in texts("--historical")
     assert "map's data" not in texts("--time", "2026-01-12 08:40", "--tz", "UTC")
+    plan = tmp_path / "plan.png"  # aion plan --png departs now as well
+    (said,) = figure_texts(monkeypatch, "plan", sample_map, "--from", "p1", "--to", "p2",
+                           "--png", plan)  # fmt: skip
+    assert f"after {days}" in said
