@@ -14,15 +14,18 @@ from aion_cli.cli.info_frames import print_frame_notes
 from aion_cli.cli.output import human_size
 
 
-def _steps(report: dict[str, Any]) -> str:
+def _steps(report: dict[str, Any], zone: str) -> str:
     """The steps of a scene ``aion export --format mcap`` wrote: one ``/aion/scene`` message
-    each, at the step's time."""
+    each, at the step's time, on the clock of ``zone`` as the header gives the times (which
+    names the zone)."""
+    from aion_cli.cli.info_map import clock_in
     from aion_cli.formats.scene_mcap import SCENE_TOPIC
 
     n = sum(t["count"] for t in report["topics"] if t["topic"] == SCENE_TOPIC)
+    start, end = (clock_in(report[key], zone) for key in ("start_ns", "end_ns"))
     if n == 1:
-        return f"one step, at {report['start']}"
-    return f"{n:,} steps from {report['start']} to {report['end']}"
+        return f"one step, at {start}"
+    return f"{n:,} steps from {start} to {end}"
 
 
 def _unused_pointer(report: dict[str, Any]) -> str:
@@ -174,7 +177,8 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
 
             what = f"it holds only raw sensor data: {RAW_SENSOR_HINT}"
         elif scene:  # not a log
-            what = f"it is a scene aion exported, to open in Foxglove or RViz: {_steps(report)}"
+            steps = _steps(report, zone)
+            what = f"it is a scene aion exported, to open in Foxglove or RViz: {steps}"
         elif not ros:  # no messages, or channels in other encodings only
             what = "it has no ROS topic"
             if report["warnings"]:

@@ -278,6 +278,23 @@ def test_info_json_on_an_exported_scene_lists_no_topic_it_cannot_read(
     assert markers in recorded["cannot_read"]
 
 
+def test_info_names_an_exported_scene_s_steps_on_the_table_s_clock(
+    office: Office, tmp_path: Path
+) -> None:
+    """The note on a scene aion exported gave its steps as UTC ISO stamps
+    (``2026-01-12T08:40:00.000000Z``) under a header on the clock of ``--tz`` (``17:40:00
+    Asia/Tokyo``): two clocks in one table. Both give the step at 08:40 UTC on Tokyo's."""
+    out = tmp_path / "scene.mcap"
+    made = run("export", office.map, "--time", "2026-01-12 08:40", "--tz", "UTC",
+               "--format", "mcap", "-o", out)  # fmt: skip
+    assert made.exit_code == 0, made.stderr
+    shown = run("info", out, "--tz", "Asia/Tokyo")
+    assert shown.exit_code == 0, shown.stderr
+    header, said = " ".join(shown.stdout.split()), " ".join(shown.stderr.split())
+    assert "(2026-01-12 17:40:00 .. 2026-01-12 17:40:00 Asia/Tokyo)" in header, header
+    assert "RViz: one step, at 2026-01-12 17:40:00)" in said, said
+
+
 def test_existing_mcap_is_replaced_other_files_refused(office: Office, tmp_path: Path) -> None:
     out = tmp_path / "scene.mcap"
     for _ in range(2):  # the second run replaces the first file

@@ -203,7 +203,7 @@ def test_info_describes_a_scene_aion_exported_without_warnings(
     assert "warning" not in said, said
     assert (
         "it is a scene aion exported, to open in Foxglove or RViz: 3 steps from "
-        "2026-11-23T08:00:00.000000Z to 2026-11-23T09:00:00.000000Z" in said
+        "2026-11-23 08:00:00 to 2026-11-23 09:00:00" in said  # on the header's clock, UTC
     ), said
     assert "no scene graph" not in said, said  # a scene, not a log to build from
     tracks = tmp_path / "t.csv"  # a log without a graph keeps the note
