@@ -214,9 +214,9 @@ def _target_graph(
             )
         return None, []
     from aion_cli.formats.dsg import load_graph
+    from aion_cli.formats.dsg_files import check_graph_path
 
-    if not Path(graph_file).is_file():
-        raise InputError(f"scene-graph file not found: {graph_file}", hint="check the path")
+    check_graph_path(Path(graph_file), InputError)
     loaded = load_graph(graph_file, 0, nav_layer)
     return loaded.snapshot, loaded.notes()
 

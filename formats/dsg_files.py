@@ -129,6 +129,20 @@ def _file_version(path: Path, suffix: str) -> str | None:
     return None
 
 
+def check_graph_path(p: Path, error: type[InputError] = GraphFileError) -> None:
+    """``error`` when ``p`` is no scene-graph file to read: a FIFO or device (``/dev/null``),
+    a folder, a missing path, each said as it is (all three were "scene-graph file not
+    found")."""
+    from aion_cli.formats.raw import check_regular_input
+
+    hint = "give the graph file Hydra saved (dsg.json, dsg_with_mesh.json or .sparkdsg)"
+    check_regular_input(p, "scene-graph file", error, hint=hint)
+    if p.is_dir():
+        raise error(f"{p} is a folder, not a scene-graph file", hint=hint)
+    if not p.is_file():
+        raise error(f"scene-graph file not found: {p}", hint="check the path")
+
+
 def read_dsg_file(path: str | Path) -> GraphFile:
     """Read a spark_dsg graph file (``.json``, ``.bson``, ``.sparkdsg``), with clear errors.
 
@@ -139,8 +153,7 @@ def read_dsg_file(path: str | Path) -> GraphFile:
     import spark_dsg
 
     p = Path(path)
-    if not p.is_file():
-        raise GraphFileError(f"scene-graph file not found: {p}", hint="check the path")
+    check_graph_path(p)
     suffix = p.suffix.lower()
     if suffix not in (".json", ".bson", ".sparkdsg"):
         raise GraphFileError(

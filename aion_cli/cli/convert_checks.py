@@ -25,7 +25,11 @@ def check_tracks_input(tracks: Path) -> None:
     cut short".)"""
     from aion_cli.errors import InputError, path_word
     from aion_cli.formats.input_kind import input_kind
+    from aion_cli.formats.raw import check_regular_input
 
+    # a FIFO or device (/dev/null) was "tracks file not found": it exists, and reading one
+    # can block forever or never end
+    check_regular_input(tracks, "tracks file", InputError, hint="give a tracks file (CSV or text)")
     word = path_word(tracks)  # the path in a command to paste
     if tracks.is_dir():
         if (tracks / "metadata.yaml").is_file():

@@ -48,3 +48,31 @@ def test_a_scene_graph_is_named_a_scene_graph(tmp_path: Path, layout: str) -> No
     _refused(graph, out, "dsg.json is a scene graph, not a tracks file", layout=layout)
     stderr = run("convert", graph, "--layout", layout, "-o", out).stderr
     assert f"--graph {path_word(graph)}" in stderr
+
+
+def test_a_device_or_fifo_is_named_as_it_is(tmp_path: Path) -> None:
+    """``aion convert /dev/null`` and ``--graph /dev/null`` (of convert, build and simulate's
+    ``--environment``) said "not found" of a path that exists; a FIFO is refused before it is
+    opened (reading one without a writer blocks), and a graph that is a folder is named so."""
+    import os
+
+    fifo = tmp_path / "tracks.fifo"
+    os.mkfifo(fifo)
+    _refused(Path("/dev/null"), tmp_path / "a.mcap", "/dev/null is a character device")
+    _refused(fifo, tmp_path / "a.mcap", f"{fifo} is a FIFO")
+    tracks = tmp_path / "t.csv"
+    tracks.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n1780000000000000000,1,0,0,0,0,1\n")
+    for command in (
+        ("convert", tracks, "-o", tmp_path / "c.mcap", "--graph", "/dev/null"),
+        ("simulate", "-o", tmp_path / "s.mcap", "--environment", "/dev/null"),
+    ):
+        result = run(*command)
+        assert result.exit_code == 2, result.stderr
+        assert_one_line_error(result.stderr, "/dev/null is a character device, not a regular "
+                              "file: aion does not read a scene-graph file from it")  # fmt: skip
+    from aion_cli.errors import InputError
+    from aion_cli.formats.dsg_files import read_dsg_file
+
+    with pytest.raises(InputError, match="is a folder, not a scene-graph file"):
+        read_dsg_file(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.csv", "tracks.fifo"]
