@@ -23,7 +23,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.types import GraphSnapshot
 from aion_cli.engine.windows import window_ns
 from aion_cli.formats.log_overlaps import topics_at_once
-from aion_cli.graph_owners import graph_streams, graph_streams_at_once
+from aion_cli.graph_owners import graph_groups, graph_streams_at_once
 from aion_cli.graph_schedule import GraphTimes
 from aion_cli.graph_source import graph_source
 from aion_cli.log_observed import marker_times, observed_fill
@@ -145,6 +145,6 @@ class ReadStep(StreamStep):
                 logset, plan.names("graph"), self.graphs.peek, config.bind_radius
             ),
         )
-        if plan.graph:  # robots at once logging one session's graphs: their union
-            self.graphs.sessions = SessionGraphs(graph_streams(logset, plan.names("graph")))
+        if plan.graph:  # robots at once logging one session's graphs: their union, per group
+            self.graphs.sessions = SessionGraphs(graph_groups(logset, plan.names("graph")))
         return fixed

@@ -9,12 +9,17 @@ and the map kept whichever robot's graph came last in time.
 The rule (:func:`graph_streams_at_once`, as :mod:`aion_cli.tf_trees` decides whose TF tree
 and :mod:`aion_cli.track_owners` whose tracks): on a scene-graph topic, recordings (a path
 given; the storage files of one rosbag2 bag are one recording) whose files holding that topic
-span a time another such recording's overlap are graph streams at once. When their first
-graphs with places are of one scene-graph session (``aion merge``'s lineage test,
+span a time another such recording's overlap are graph streams at once, in groups that
+overlap one another (directly or through others: :func:`aion_cli.tf_trees.overlap_groups`),
+each judged on its own. When the first graphs with places of a group's recordings are of one
+scene-graph session (``aion merge``'s lineage test,
 :func:`aion_cli.engine.rebind.graph_agreement`: more than half of the place ids both hold lie
 within ``bind_radius`` of each other: robots sharing one multi-robot graph, or one recording
-twice) they are one session's graph, which the map takes as the union of each recording's
-latest graph (:func:`graph_streams`, :class:`aion_cli.session_graphs.SessionGraphs`).
+twice) they are one session's graph, which the map takes, while that group's time lasts, as
+the union of each of its recordings' latest graph (:func:`graph_groups`,
+:class:`aion_cli.session_graphs.SessionGraphs`). Two robots sharing one session in the
+morning and two sharing another (Hydra restarted) in the afternoon are two groups, one after
+the other as one robot's logs of two days are.
 Otherwise (another session's places, no shared id, a recording none of whose first
 :data:`FIRST_GRAPHS` graphs decodes with places) the build refuses them
 (:func:`graphs_at_once_error`) rather than let them take turns. The map the user wants is
@@ -25,9 +30,10 @@ while streaming. ``--graph FILE`` (one graph for the whole fleet) builds them at
 logs' graphs ignored.
 
 Recordings of one topic one after the other (one robot's logs: ``rosbag record --split``
-files, days) are one stream in time order, a later graph replacing an earlier one as in one
-file; a recording split by topic (the graphs in one log, the detections or ``/tf`` in
-another) has one stream. Both build as before the rule.
+files, days), and groups of recordings at once one after the other, are one stream in time
+order, a later graph (a later group's union) replacing an earlier one as in one file; a
+recording split by topic (the graphs in one log, the detections or ``/tf`` in another) has
+one stream. Both build as before the rule.
 
 Overlapping recordings always build in one shard of a parallel build (a shard is a group of
 logs that overlap or touch), so a shard refuses them as one pass does.
@@ -40,13 +46,13 @@ from itertools import islice
 from typing import TYPE_CHECKING, Any
 
 from aion_cli.errors import InputError, path_word
-from aion_cli.tf_trees import overlapping
+from aion_cli.tf_trees import overlap_groups
 
 if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.formats.raw import RawMessage
 
-__all__ = ["FIRST_GRAPHS", "graph_streams", "graph_streams_at_once", "graphs_at_once_error"]
+__all__ = ["FIRST_GRAPHS", "graph_groups", "graph_streams_at_once", "graphs_at_once_error"]
 
 #: a recording's first graph messages tried for one that decodes with places
 FIRST_GRAPHS = 10
@@ -61,22 +67,38 @@ def graph_streams_at_once(
 ) -> tuple[str, list[str]] | None:
     """The first scene-graph topic of ``topics`` (sorted) that recordings of ``logset``
     (:meth:`formats.logs.LogSet.recording_times`, by the logs' indexes) carry over times that
-    overlap, with graphs of other sessions (:func:`_one_session`), and those recordings'
-    paths (each one's first file; the folder of a rosbag2 bag's storage files); None when
-    there is no such topic."""
+    overlap, with graphs of other sessions, and those recordings' paths (each one's first
+    file; the folder of a rosbag2 bag's storage files); None when there is no such topic.
+    Each group of recordings that overlap one another, directly or through others
+    (:func:`aion_cli.tf_trees.overlap_groups`), is judged on its own (:func:`_one_session`)
+    and refused by its own paths: two robots of one session in the morning and two of
+    another (Hydra restarted) in the afternoon are two groups, the afternoon's graphs
+    following the morning's as one robot's later recording's do."""
     for topic in sorted(topics):
-        found = overlapping(logset.recording_times([topic]))
-        if found and not _one_session(logset, topic, found, peek, tolerance):
-            return topic, [_recording_path(logset, key) for key in found]
+        for group in _at_once(overlap_groups(logset.recording_times([topic]))):
+            if not _one_session(logset, topic, group, peek, tolerance):
+                return topic, [_recording_path(logset, key) for key in group]
     return None
 
 
-def graph_streams(logset: Any, topics: Iterable[str]) -> frozenset[int]:
-    """The recordings of ``logset`` whose messages on the scene-graph ``topics`` span a time
-    another's overlap: graph streams at once of one session (after
-    :func:`graph_streams_at_once` found no other), whose graphs the map joins
-    (:class:`aion_cli.session_graphs.SessionGraphs`); empty when there are none."""
-    return frozenset(overlapping(logset.recording_times(topics)))
+def graph_groups(logset: Any, topics: Iterable[str]) -> dict[int, int]:
+    """Per recording of ``logset`` carrying the scene-graph ``topics``, its group of
+    recordings that overlap in time (:func:`aion_cli.tf_trees.overlap_groups`, numbered in
+    time order; a recording that overlaps none is a group of its own), when some overlap:
+    graph streams at once of one session per group (after :func:`graph_streams_at_once`
+    found no other), whose graphs the map joins while their group's time lasts
+    (:class:`aion_cli.session_graphs.SessionGraphs`); empty when none overlap (one stream)."""
+    groups = overlap_groups(logset.recording_times(topics))
+    return groups if _at_once(groups) else {}
+
+
+def _at_once(groups: dict[int, int]) -> list[list[int]]:
+    """The groups of ``groups`` (key: its group) that hold more than one key: recordings at
+    once, each group's keys sorted, the groups in time order."""
+    members: dict[int, list[int]] = {}
+    for key in sorted(groups):
+        members.setdefault(groups[key], []).append(key)
+    return [keys for _, keys in sorted(members.items()) if len(keys) > 1]
 
 
 def _one_session(

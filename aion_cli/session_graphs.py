@@ -7,9 +7,13 @@ robot's graph held and the other's not yet left the map's graph and came back, t
 (two simulated robots of one morning: 10 of 220 detections ended in hash cells, against 3 in
 ``aion merge`` of the robots' own maps). One session is one growing graph, so the map's graph
 is the union of each recording's latest graph (:func:`aion_cli.engine.graph_union.union_graphs`:
-a node while any robot's latest graph holds it, at the newest position). Recordings whose
-graphs overlap no other's (one robot's ``--split`` files, days) are one stream as before, a
-later graph replacing an earlier one: their graphs share one key here.
+a node while any robot's latest graph holds it, at the newest position) while their group's
+time lasts (:func:`aion_cli.graph_owners.graph_groups`: recordings that overlap, directly or
+through others). A graph of a later group (two robots of another Hydra session in the
+afternoon, one robot's next ``--split`` file or day) replaces the earlier group's, as a later
+graph replaces an earlier one in one stream (before, the afternoon's union held the morning's
+session's latest graphs too: places the afternoon's session does not hold stayed in the map's
+graph, at the morning's positions, and owned the afternoon's detections there).
 """
 
 from __future__ import annotations
@@ -22,35 +26,42 @@ if TYPE_CHECKING:
 
 __all__ = ["SessionGraphs", "same_graph"]
 
-#: the key of the recordings whose graphs overlap no other's: one stream
-_ONE_STREAM = -1
+#: the group of a recording :func:`aion_cli.graph_owners.graph_groups` does not name
+_NO_GROUP = -1
 
 
 class SessionGraphs:
-    """Each graph stream's latest graph and their union; ``streams``: the recordings whose
-    graph messages overlap another's in time (empty: one stream, every graph as it comes)."""
+    """The graphs of the current group of graph streams (``groups``: per recording, its group
+    of recordings whose graph messages overlap in time, numbered in time order; empty: one
+    stream, every graph as it comes): each stream's latest graph and their union."""
 
-    def __init__(self, streams: frozenset[int] = frozenset()) -> None:
-        self.streams = streams
+    def __init__(self, groups: dict[int, int] | None = None) -> None:
+        self.groups = groups or {}
+        self._group = _NO_GROUP  # the group whose graphs _latest holds
         self._latest: dict[int, GraphSnapshot] = {}  # in the order of their latest graphs
         self._union: GraphSnapshot | None = None
         self._made_of: tuple[int, ...] = ()  # the graphs the union was made of (ids)
 
     def join(self, recording: int, snapshot: GraphSnapshot) -> GraphSnapshot:
         """The map's graph once ``snapshot`` (a graph of ``recording``) came: ``snapshot``
-        itself with one stream, else the union of every stream's latest graph, with
-        ``snapshot``'s time, mesh and agents. A stream's graph that holds what its graph
-        before held (Hydra repeating an unchanged graph) stays the one before, in its place
-        in the order (a node both streams hold stays where the stream that last changed it
-        put it, not taking turns between them), and the union of the same graphs reuses
-        the union's layers, so the map sees the place layer it saw before (no node moved)."""
-        if not self.streams:
+        itself with one stream, else the union of the latest graph of every stream of
+        ``recording``'s group, with ``snapshot``'s time, mesh and agents; the first graph of
+        another group (a later one) drops the graphs of the group before. A stream's graph
+        that holds what its graph before held (Hydra repeating an unchanged graph) stays the
+        one before, in its place in the order (a node both streams hold stays where the
+        stream that last changed it put it, not taking turns between them), and the union of
+        the same graphs reuses the union's layers, so the map sees the place layer it saw
+        before (no node moved)."""
+        if not self.groups:
             return snapshot
-        key = recording if recording in self.streams else _ONE_STREAM
-        before = self._latest.get(key)
+        group = self.groups.get(recording, _NO_GROUP)
+        if group != self._group:  # the earlier group's time is over
+            self._latest.clear()
+            self._group = group
+        before = self._latest.get(recording)
         if before is None or not same_graph(before, snapshot):
-            self._latest.pop(key, None)
-            self._latest[key] = snapshot
+            self._latest.pop(recording, None)
+            self._latest[recording] = snapshot
         graphs = list(self._latest.values())
         made_of = tuple(id(g) for g in graphs)
         union = self._union

@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from aion_cli.formats.tf import TfBuffer
     from aion_cli.topics import TopicPlan
 
-__all__ = ["REST", "TfTrees", "overlapping", "own_tf_buffers"]
+__all__ = ["REST", "TfTrees", "overlap_groups", "overlapping", "own_tf_buffers"]
 
 REST = -1
 """The key of the tree of the ``/tf`` of every recording without a tree of its own (they
@@ -65,19 +65,31 @@ def own_tf_buffers(logset: Any, plan: TopicPlan) -> dict[int, TfBuffer]:
 
 def overlapping(spans: dict[int, tuple[int, int]]) -> list[int]:
     """The keys of ``spans`` (first and last message time) whose span overlaps another's
-    (sharing more than an instant), sorted: sorted by start, a span overlaps an earlier one
-    when it starts before the latest end before it, and a later one when the next start
-    comes before its end."""
-    if len(spans) < 2:
+    (sharing more than an instant), sorted: those whose group of :func:`overlap_groups`
+    holds another."""
+    groups = overlap_groups(spans)
+    if len(groups) < 2:
         return []
+    sizes = np.bincount(np.array(list(groups.values()), np.int64))
+    return sorted(key for key, group in groups.items() if sizes[group] > 1)
+
+
+def overlap_groups(spans: dict[int, tuple[int, int]]) -> dict[int, int]:
+    """Per key of ``spans`` (first and last message time), its group's index in time order:
+    spans that overlap (sharing more than an instant) directly or through others are one
+    group, a span that overlaps none a group of its own. Sorted by start, a span starts a
+    group when it starts at or after the latest end before it (a span overlaps an earlier
+    one when it starts before that end, and a later one when the next start comes before
+    its end)."""
+    if not spans:
+        return {}
     keys = np.array(list(spans), np.int64)
-    lo, hi = np.array(list(spans.values()), np.int64).T
+    lo, hi = np.array(list(spans.values()), np.int64).reshape(-1, 2).T
     order = np.lexsort((hi, lo))
     keys, lo, hi = keys[order], lo[order], hi[order]
     reach = np.maximum.accumulate(hi)
-    earlier = np.concatenate([[False], lo[1:] < reach[:-1]])
-    later = np.concatenate([lo[1:] < hi[:-1], [False]])
-    return sorted(keys[earlier | later].tolist())
+    starts = np.concatenate([[True], lo[1:] >= reach[:-1]])
+    return dict(zip(keys.tolist(), (np.cumsum(starts) - 1).tolist(), strict=True))
 
 
 @dataclass

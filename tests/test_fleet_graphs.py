@@ -40,13 +40,17 @@ def write_robot(
     seconds: range = range(DURATION_S),
     moved: int | None = None,
     quiet: range = range(0),
+    others: dict[int, tuple[float, float]] | None = None,
+    offsets: tuple[int, ...] = (),
 ) -> Path:
     """A robot's log over ``seconds`` of the recording: its graph of ``places`` every minute,
     ``offset_s`` after the whole minute (robots' graphs interleave); the person ``track``
     standing at ``person`` (map frame) every second; the robot at rest at p0 on ``/tf``
     every 5 s. ``moved``: from that second on the graphs hold p1 moved 1 m along y (a later
     graph of the same session); ``quiet``: seconds without the person (a pause a parallel
-    build may cut the log at)."""
+    build may cut the log at); ``others``: more people standing (track: position) beside the
+    person; ``offsets``: more seconds after the minute with a graph (one log with the graphs
+    of several robots' times)."""
     first, second = sorted(places)[:2]  # p0, p1
     later = dict(places)
     x, y, z = later[second]
@@ -55,7 +59,7 @@ def write_robot(
     with LogWriter(path, "mcap") as writer:
         for s in seconds:
             t = T0 + s * S
-            if s % GRAPH_PERIOD_S == offset_s:
+            if s % GRAPH_PERIOD_S in (offset_s, *offsets):
                 payload = payloads[int(moved is not None and s >= moved)]
                 writer.write(
                     TOPIC,
@@ -93,11 +97,11 @@ def write_robot(
                 {
                     "header": {"stamp": _stamp(half), "frame_id": "map"},
                     "tracks": [{
-                        "track_id": track,
+                        "track_id": k,
                         "is_matched": True,
-                        "pose": {"pose": {"position": {"x": person[0], "y": person[1]},
+                        "pose": {"pose": {"position": {"x": xy[0], "y": xy[1]},
                                           "orientation": {"w": 1.0}}},
-                    }],
+                    } for k, xy in {track: person, **(others or {})}.items()],
                 },
                 half,
             )
