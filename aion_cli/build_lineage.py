@@ -129,6 +129,17 @@ def check_log_graph(
     raise _another_session(f"the scene graph in {logs} is", name, agreement, tolerance)
 
 
+def other_session(before: GraphSnapshot, after: GraphSnapshot, tolerance: float) -> bool:
+    """Whether ``after`` holds place ids of ``before`` mostly farther than ``tolerance``
+    from their places in ``before`` (another Hydra session, which numbers its places from p0
+    again: :func:`aion_cli.engine.rebind.graph_agreement`, ``aion merge``'s lineage test);
+    False when they share no place id."""
+    from aion_cli.engine.rebind import graph_agreement
+
+    agreement = graph_agreement(before, after, tolerance)
+    return agreement.shared > 0 and not agreement.same
+
+
 def first_applied_graph(
     logs: list[Path],
     log_format: str | None,

@@ -88,6 +88,8 @@ class StreamStep:
     _lineage_graph: GraphSnapshot | None = None
     #: the first and last robot pose of the agent layers the observation used (None: none)
     _agent_times: tuple[int, int] | None = None
+    #: per later log whose graphs began another session, the node entries it released
+    _session_breaks: list[int]
 
     def continue_on_logs(self, logset: Any, plan: TopicPlan, peek: bool = False) -> None:
         """Whether the logs' own scene graphs go on in the continued map's session (without
@@ -201,7 +203,8 @@ class StreamStep:
         # once they have left: the Mapper takes rows and graphs in the stream's order, as
         # without the hold, and the held rows keep the heading that comes after the graph
         hold = HeadingHold()
-        behind: deque[tuple[int, GraphSnapshot]] = deque()
+        behind: deque[tuple[int, GraphSnapshot, bool]] = deque()
+        self._session_breaks = []
         # duck-typed: decoded_chunks only calls decode()
         for batch, n_messages, graph_msg in decoded_chunks(stream, cast(Any, feeders)):
             if batch is not None:
@@ -213,16 +216,22 @@ class StreamStep:
                 snapshot = self.graphs.decode_or_skip(logset, graph_msg)
                 if snapshot is not None:
                     snapshot = self.graphs.sessions.join(graph_msg.recording, snapshot)
+                    later = self.graphs.sessions.new_group  # a later log's first graph
                 if snapshot is not None and len(hold):
                     _superseded_mesh(behind)
-                    behind.append((hold.left + len(hold), snapshot))
+                    behind.append((hold.left + len(hold), snapshot, later))
                 elif snapshot is not None:
-                    self._take_graph(mapper, snapshot, use_agents)
+                    self._take_graph(mapper, snapshot, use_agents, later)
                 self.progress.advance(1)
         self._leave(mapper, hold, behind, *hold.release(), use_agents=use_agents)
         self._sketch.flush()
         feeders.count_settled(hold.settled)
         self.graphs.check_skips(stop_if_none=not self.shard)
+        if self._session_breaks:
+            from aion_cli.graph_notes import session_break_note
+
+            tolerance = mapper.state.config.bind_radius
+            self.report.notes.append(session_break_note(self._session_breaks, tolerance))
         self.report.graph_pins = self.graphs.pins
         c = self.counts = record_detections(
             self.report, feeders, self._tally.used, self._tally.drops, plan
@@ -260,7 +269,7 @@ class StreamStep:
         self,
         mapper: Mapper,
         hold: HeadingHold,
-        behind: deque[tuple[int, GraphSnapshot]],
+        behind: deque[tuple[int, GraphSnapshot, bool]],
         batch: DetectionBatch,
         topics: I64,
         use_agents: bool,
@@ -270,12 +279,12 @@ class StreamStep:
         them applied between the rows before it and those after it."""
         start, done = hold.left - len(batch), 0
         while behind and behind[0][0] <= hold.left:
-            at, snapshot = behind.popleft()
+            at, snapshot, later = behind.popleft()
             cut = at - start
             if cut > done:
                 part = np.arange(done, cut)
                 self._feed(mapper, batch.select(part), topics[part])
-            self._take_graph(mapper, snapshot, use_agents)
+            self._take_graph(mapper, snapshot, use_agents, later)
             done = max(done, cut)
         if done == 0:
             self._feed(mapper, batch, topics)
@@ -374,11 +383,24 @@ class StreamStep:
         continued = self.opts.continue_from
         return continued.name if continued is not None else self.report.output.name
 
-    def _take_graph(self, mapper: Mapper, snapshot: GraphSnapshot, use_agents: bool) -> None:
+    def _take_graph(
+        self, mapper: Mapper, snapshot: GraphSnapshot, use_agents: bool, later: bool = False
+    ) -> None:
         """One scene graph of the stream (a message :func:`graph_schedule` kept, decoded or
         its last payload's graph reused, :meth:`aion_cli.graph_feed.GraphFeed.decode`;
         damaged ones were skipped, :meth:`aion_cli.graph_feed.GraphFeed.decode_or_skip`)
-        applied to the map."""
+        applied to the map. ``later``: the first graph of a later log (or group of logs at
+        once) than the graph before (:attr:`aion_cli.session_graphs.SessionGraphs.
+        new_group`): when it holds the place ids of the map's graph at other places (another
+        Hydra session, ``aion merge``'s lineage test), the map's node entries are released
+        to hash cells first (:meth:`aion_cli.engine.mapper.Mapper.begin_session`), as the
+        merge of the two sessions' maps releases them, rather than following the ids to the
+        new session's unrelated places."""
+        if later and mapper.state.graph is not None:
+            from aion_cli.build_lineage import other_session
+
+            if other_session(mapper.state.graph, snapshot, mapper.state.config.bind_radius):
+                self._session_breaks.append(mapper.begin_session(snapshot.t_ns))
         if self._lineage_graph is not None and self.previous is not None:
             from aion_cli.build_lineage import check_log_graph
 
@@ -395,7 +417,7 @@ class StreamStep:
         self.report.graph_messages += 1
 
 
-def _superseded_mesh(behind: deque[tuple[int, GraphSnapshot]]) -> None:
+def _superseded_mesh(behind: deque[tuple[int, GraphSnapshot, bool]]) -> None:
     """The newest graph waiting ``behind`` the heading hold without its mesh, as a later
     graph comes to wait behind it: that one is applied after it and replaces it as the map's
     graph, and only the map's last graph's mesh is kept (:mod:`aion_cli.engine.graph_arrays`;
@@ -404,5 +426,5 @@ def _superseded_mesh(behind: deque[tuple[int, GraphSnapshot]]) -> None:
     5 s, and their 30,000-vertex meshes held 121 MB (the places, shared between snapshots
     where they did not change, held 4 MB for 3,000 places)."""
     if behind and behind[-1][1].mesh is not None:
-        at, snapshot = behind[-1]
-        behind[-1] = (at, dataclasses.replace(snapshot, mesh=None))
+        at, snapshot, later = behind[-1]
+        behind[-1] = (at, dataclasses.replace(snapshot, mesh=None), later)

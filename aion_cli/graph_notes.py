@@ -19,6 +19,7 @@ __all__ = [
     "graph_counts_note",
     "other_frame_warning",
     "pins_blocker",
+    "session_break_note",
 ]
 
 GRAPH_COUNTS_NOTE = "scene graphs: "
@@ -76,3 +77,18 @@ def pins_blocker(
                 f"them ({mine}), which one pass keeps for the rest of the stream"
             )
     return None
+
+
+def session_break_note(released: list[int], tolerance: float) -> str:
+    """The note for a build whose scene graphs at a later log began another session
+    (``released``: per such log, the node entries released), as ``aion merge`` does for two
+    sessions' maps: their flows stay where they were seen, not at the new session's places of
+    the same ids."""
+    whose = "a later log's" if len(released) == 1 else f"{len(released)} later logs'"
+    return (
+        f"{whose} scene graphs hold the place ids of "
+        f"the graph before at other places (most farther than {tolerance:g} m: another "
+        f"scene-graph session): the map's node entries ({sum(released):,}) were released "
+        "to hash cells there, which bind to the new session's places as the build goes, as "
+        "aion merge does for two sessions' maps"
+    )

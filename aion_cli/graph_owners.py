@@ -33,7 +33,9 @@ Recordings of one topic one after the other (one robot's logs: ``rosbag record -
 files, days), and groups of recordings at once one after the other, are one stream in time
 order, a later graph (a later group's union) replacing an earlier one as in one file; a
 recording split by topic (the graphs in one log, the detections or ``/tf`` in another) has
-one stream. Both build as before the rule.
+one stream. Both build as before the rule; a later group whose first graph is of another
+session releases the map's node entries first
+(:meth:`aion_cli.build_stream.StreamStep._take_graph`).
 
 Overlapping recordings always build in one shard of a parallel build (a shard is a group of
 logs that overlap or touch), so a shard refuses them as one pass does.
@@ -52,7 +54,13 @@ if TYPE_CHECKING:
     from aion_cli.engine.types import GraphSnapshot
     from aion_cli.formats.raw import RawMessage
 
-__all__ = ["FIRST_GRAPHS", "graph_groups", "graph_streams_at_once", "graphs_at_once_error"]
+__all__ = [
+    "FIRST_GRAPHS",
+    "graph_groups",
+    "graph_streams_at_once",
+    "graphs_at_once",
+    "graphs_at_once_error",
+]
 
 #: a recording's first graph messages tried for one that decodes with places
 FIRST_GRAPHS = 10
@@ -84,12 +92,19 @@ def graph_streams_at_once(
 def graph_groups(logset: Any, topics: Iterable[str]) -> dict[int, int]:
     """Per recording of ``logset`` carrying the scene-graph ``topics``, its group of
     recordings that overlap in time (:func:`aion_cli.tf_trees.overlap_groups`, numbered in
-    time order; a recording that overlaps none is a group of its own), when some overlap:
-    graph streams at once of one session per group (after :func:`graph_streams_at_once`
-    found no other), whose graphs the map joins while their group's time lasts
-    (:class:`aion_cli.session_graphs.SessionGraphs`); empty when none overlap (one stream)."""
-    groups = overlap_groups(logset.recording_times(topics))
-    return groups if _at_once(groups) else {}
+    time order; a recording that overlaps none is a group of its own), when two or more
+    carry them (empty: one recording, one stream). A group of several is graph streams at
+    once of one session (after :func:`graph_streams_at_once` found no other), whose graphs
+    the map joins while their group's time lasts; a later group's graphs follow (
+    :class:`aion_cli.session_graphs.SessionGraphs`)."""
+    spans = logset.recording_times(topics)
+    return overlap_groups(spans) if len(spans) > 1 else {}
+
+
+def graphs_at_once(logset: Any, topics: Iterable[str]) -> bool:
+    """Whether recordings of ``logset`` carry the scene-graph ``topics`` over times that
+    overlap (:func:`graph_groups` of several recordings)."""
+    return bool(_at_once(graph_groups(logset, topics)))
 
 
 def _at_once(groups: dict[int, int]) -> list[list[int]]:

@@ -18,6 +18,7 @@ graph, at the morning's positions, and owned the afternoon's detections there).
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -33,31 +34,42 @@ _NO_GROUP = -1
 class SessionGraphs:
     """The graphs of the current group of graph streams (``groups``: per recording, its group
     of recordings whose graph messages overlap in time, numbered in time order; empty: one
-    stream, every graph as it comes): each stream's latest graph and their union."""
+    recording, every graph as it comes): each stream's latest graph and their union.
+    :attr:`new_group`: whether the graph :meth:`join` took last is the first of a later
+    group than the graph before it (a later log: another Hydra session may begin there,
+    :meth:`aion_cli.build_stream.StreamStep._take_graph`)."""
 
     def __init__(self, groups: dict[int, int] | None = None) -> None:
         self.groups = groups or {}
-        self._group = _NO_GROUP  # the group whose graphs _latest holds
+        sizes = Counter(self.groups.values())
+        self._at_once = {group for group, n in sizes.items() if n > 1}  # joined: a union
+        self._group: int | None = None  # the group whose graphs _latest holds
+        self.new_group = False
         self._latest: dict[int, GraphSnapshot] = {}  # in the order of their latest graphs
         self._union: GraphSnapshot | None = None
         self._made_of: tuple[int, ...] = ()  # the graphs the union was made of (ids)
 
     def join(self, recording: int, snapshot: GraphSnapshot) -> GraphSnapshot:
         """The map's graph once ``snapshot`` (a graph of ``recording``) came: ``snapshot``
-        itself with one stream, else the union of the latest graph of every stream of
-        ``recording``'s group, with ``snapshot``'s time, mesh and agents; the first graph of
-        another group (a later one) drops the graphs of the group before. A stream's graph
-        that holds what its graph before held (Hydra repeating an unchanged graph) stays the
-        one before, in its place in the order (a node both streams hold stays where the
-        stream that last changed it put it, not taking turns between them), and the union of
-        the same graphs reuses the union's layers, so the map sees the place layer it saw
-        before (no node moved)."""
+        itself from a recording that overlaps no other, else the union of the latest graph of
+        every stream of ``recording``'s group, with ``snapshot``'s time, mesh and agents; the
+        first graph of another group (a later one) drops the graphs of the group before. A
+        stream's graph that holds what its graph before held (Hydra repeating an unchanged
+        graph) stays the one before, in its place in the order (a node both streams hold
+        stays where the stream that last changed it put it, not taking turns between them),
+        and the union of the same graphs reuses the union's layers, so the map sees the place
+        layer it saw before (no node moved)."""
+        self.new_group = False
         if not self.groups:
             return snapshot
         group = self.groups.get(recording, _NO_GROUP)
         if group != self._group:  # the earlier group's time is over
+            self.new_group = self._group is not None
             self._latest.clear()
+            self._union = None
             self._group = group
+        if group not in self._at_once:
+            return snapshot
         before = self._latest.get(recording)
         if before is None or not same_graph(before, snapshot):
             self._latest.pop(recording, None)

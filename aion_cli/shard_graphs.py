@@ -49,18 +49,18 @@ def changing_part(
     first and last graph, at ``graph_times``, sorted, differ; ``tolerance``: the model's
     ``stable_move_tolerance``); None when none does or it cannot be told (the log is not
     read by time, a graph does not decode). Robots at once logging one session's graphs
-    (:func:`aion_cli.graph_owners.graph_groups`): the second part, whatever its graphs, as
+    (:func:`aion_cli.graph_owners.graphs_at_once`): the second part, whatever its graphs, as
     the map's graph is the union of each robot's latest graph (:mod:`aion_cli.session_graphs`)
     that a part built apart would start without the graphs before it."""
     if graph_times.size < 2 or len(parts) < 2:
         return None
     from aion_cli.build_options import build_topics
-    from aion_cli.graph_owners import graph_groups
+    from aion_cli.graph_owners import graphs_at_once
 
     topics = build_topics(logset, opts).names("graph")
     if not topics:
         return None
-    if graph_groups(logset, topics):  # from the indexes, whether or not read by time
+    if graphs_at_once(logset, topics):  # from the indexes, whether or not read by time
         return parts[1]
     if not logset.skips_by_time():
         return None

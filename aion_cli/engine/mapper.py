@@ -161,6 +161,22 @@ class Mapper:
         st.log_time_ns = _later(st.log_time_ns, int(snapshot.t_ns))
         bind_cells(st, st.log_time_ns)
 
+    def begin_session(self, t_ns: int) -> int:
+        """Another scene-graph session's graph comes at log time ``t_ns`` (its node ids are
+        its own, the same ids at other places): windows ending at or before ``t_ns`` close
+        first (they are over, on the places they saw), then every node entry is released to
+        the hash cell at its node's position and the graph is forgotten
+        (:func:`aion_cli.engine.rebind.release_all`, as ``aion merge`` of two sessions'
+        maps and ``--lineage different`` release them), for the cells to bind to the new
+        session's places as those turn stable; returns how many were released."""
+        from aion_cli.engine.rebind import release_all
+
+        st = self._state
+        check_time(int(t_ns), "a scene graph")
+        if st.open_window is not None:
+            close_windows(st, int(t_ns) // self._delta)
+        return release_all(st)
+
     def add_trajectory(self, trajectory: Trajectory) -> None:
         """Robot poses for the observation masks (any time order, before windows close)."""
         if len(trajectory):
