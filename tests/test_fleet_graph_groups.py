@@ -15,7 +15,8 @@ mapped p0..p4 and sees a person at p4; in the afternoon's session the office's p
 0.7 m, 3 m away (``tests.test_fleet_graphs.PLACES2``), robot 3 maps them and sees a person at
 its p4, robot 4 has mapped p0..p2 and sees a person where the morning's p5 was (no place of
 the afternoon's session within ``bind_radius``). The independent answer: the same people and
-graphs in one log per shift (one stream: the afternoon's graph replaces the morning's)."""
+graphs in one log per shift (one stream: the afternoon's graph replaces the morning's), and
+``aion merge`` of each shift's own map."""
 
 from __future__ import annotations
 
@@ -95,6 +96,25 @@ def test_shifts_of_two_sessions_build_one_after_the_other(tmp_path: Path) -> Non
     want = live_entries(reference)
     for name in want:
         np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+
+
+def test_the_shifts_build_is_the_merge_of_each_shifts_map(tmp_path: Path) -> None:
+    """``aion merge`` of each shift's own map (two sessions: the morning's flows released
+    and bound to the afternoon's places within reach) holds the one build's entries."""
+    from aion_cli.merging import merge_map_files
+
+    logs = _shifts(tmp_path)
+    build_map(BuildOptions(logs=tuple(logs), output=tmp_path / "fleet.aion", workers=1))
+    for name, shift in (("am", logs[:2]), ("pm", logs[2:])):
+        build_map(BuildOptions(logs=tuple(shift), output=tmp_path / f"{name}.aion", workers=1))
+    merged = merge_map_files([tmp_path / "am.aion", tmp_path / "pm.aion"],
+                             tmp_path / "merged.aion")
+    assert merged.lineage == "different"
+    got, want = live_entries(tmp_path / "fleet.aion"), live_entries(tmp_path / "merged.aion")
+    mine, theirs = (e["counts"].sum(axis=1) > 0 for e in (got, want))  # (empty nodes apart)
+    for name in want:
+        np.testing.assert_allclose(got[name][mine], want[name][theirs], rtol=0, atol=1e-9,
+                                   err_msg=name)
 
 
 def test_a_parallel_build_of_the_shifts_is_the_one_pass(tmp_path: Path) -> None:
