@@ -43,7 +43,7 @@ logs that overlap or touch), so a shard refuses them as one pass does.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from itertools import islice
 from typing import TYPE_CHECKING, Any
 
@@ -65,6 +65,9 @@ __all__ = [
 #: a recording's first graph messages tried for one that decodes with places
 FIRST_GRAPHS = 10
 
+#: the map of a build's logs beside the refused ones, in :func:`graphs_at_once_error`'s hint
+OTHERS_MAP = "other-logs.aion"
+
 #: a scene-graph message decoded apart from the stream (None: damaged or partial), as
 #: :meth:`aion_cli.graph_feed.GraphFeed.peek` decodes it
 Peek = Callable[[Any, "RawMessage"], "GraphSnapshot | None"]
@@ -72,11 +75,12 @@ Peek = Callable[[Any, "RawMessage"], "GraphSnapshot | None"]
 
 def graph_streams_at_once(
     logset: Any, topics: Iterable[str], peek: Peek, tolerance: float
-) -> tuple[str, list[str]] | None:
+) -> tuple[str, list[str], list[str]] | None:
     """The first scene-graph topic of ``topics`` (sorted) that recordings of ``logset``
     (:meth:`formats.logs.LogSet.recording_times`, by the logs' indexes) carry over times that
-    overlap, with graphs of other sessions, and those recordings' paths (each one's first
-    file; the folder of a rosbag2 bag's storage files); None when there is no such topic.
+    overlap, with graphs of other sessions, those recordings' paths (each one's first file;
+    the folder of a rosbag2 bag's storage files) and the paths of the logset's other
+    recordings, in the order given; None when there is no such topic.
     Each group of recordings that overlap one another, directly or through others
     (:func:`aion_cli.tf_trees.overlap_groups`), is judged on its own (:func:`_one_session`)
     and refused by its own paths: two robots of one session in the morning and two of
@@ -85,7 +89,9 @@ def graph_streams_at_once(
     for topic in sorted(topics):
         for group in _at_once(overlap_groups(logset.recording_times([topic]))):
             if not _one_session(logset, topic, group, peek, tolerance):
-                return topic, [_recording_path(logset, key) for key in group]
+                others = [key for key in dict.fromkeys(logset.recordings) if key not in group]
+                paths = [_recording_path(logset, key) for key in group]
+                return topic, paths, [_recording_path(logset, key) for key in others]
     return None
 
 
@@ -158,14 +164,22 @@ def _recording_path(logset: Any, key: int) -> str:
     return str(files[0] if len(files) == 1 else files[0].parent)
 
 
-def graphs_at_once_error(topic: str, paths: list[str]) -> InputError:
+def graphs_at_once_error(
+    topic: str, paths: list[str], others: Sequence[str] = ()
+) -> InputError:
     """The refusal of logs of robots recording at once that carry graphs of other scene-graph
     sessions on ``topic``: their graphs would take turns as the map's graph; the hint tells
-    how to build their map (each robot's map, then ``aion merge``) or give one graph for all
-    (``--graph FILE``)."""
+    how to build their map (each robot's map, then ``aion merge``, with the map of the
+    build's ``others`` logs, which the refusal does not name: the morning's robots of one
+    session beside the afternoon's refused ones) or give one graph for all (``--graph
+    FILE``)."""
     words = [path_word(p) for p in paths]
     maps = [path_word(m) for m in _map_names(paths)]
-    builds = "; ".join(f"aion build {w} -o {m}" for w, m in zip(words, maps, strict=True))
+    steps = [f"aion build {w} -o {m}" for w, m in zip(words, maps, strict=True)]
+    if others:
+        steps.append(f"aion build {' '.join(path_word(p) for p in others)} -o {OTHERS_MAP}")
+        maps.append(OTHERS_MAP)
+    builds = "; ".join(steps)
     return InputError(
         f"{len(paths)} logs carry scene graphs on {topic} at the same time "
         f"({', '.join(paths)}), of other scene-graph sessions (robots recording at once): "

@@ -39,7 +39,7 @@ def graph_source(
     start: int,
     derive: Callable[[], GraphSnapshot],
     graph_topics_at_once: Callable[[], list[str]],
-    graph_streams_at_once: Callable[[], tuple[str, list[str]] | None],
+    graph_streams_at_once: Callable[[], tuple[str, list[str], list[str]] | None],
 ) -> GraphSnapshot | None:
     """Where the map's graph comes from, in this order: ``--graph FILE`` (the log's scene
     graphs are then ignored), the log's scene-graph stream (read by :class:`GraphFeed`;

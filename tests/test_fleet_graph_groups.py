@@ -136,8 +136,29 @@ def test_a_shift_of_two_sessions_is_refused_by_its_logs(tmp_path: Path) -> None:
     assert f"2 logs carry scene graphs on {TOPIC} at the same time" in exc.value.message
     assert f"({logs[2]}, {logs[3]})" in exc.value.message
     assert str(logs[0]) not in exc.value.message
-    assert "aion merge pm1.aion pm2.aion -o fleet.aion" in (exc.value.hint or "")
     assert not (tmp_path / "m.aion").exists()
+
+
+def test_the_refusals_hint_builds_every_log(tmp_path: Path) -> None:
+    """The hint names the build's other logs too (the morning's robots, which the refusal
+    does not name): before, following it built the afternoon's robots only. Its route, each
+    command as given, holds every detection of the four logs."""
+    from aion_cli.merging import merge_map_files
+
+    logs = _shifts(tmp_path, pm_part=AM)
+    with pytest.raises(InputError) as exc:
+        build_map(BuildOptions(logs=tuple(logs), output=tmp_path / "m.aion", workers=1))
+    hint = exc.value.hint or ""
+    steps = [
+        ((logs[2],), "pm1.aion"), ((logs[3],), "pm2.aion"), (tuple(logs[:2]), "other-logs.aion")
+    ]
+    for step_logs, name in steps:
+        assert f"aion build {' '.join(map(str, step_logs))} -o {name}" in hint
+        build_map(BuildOptions(logs=step_logs, output=tmp_path / name, workers=1))
+    assert "aion merge pm1.aion pm2.aion other-logs.aion -o fleet.aion" in hint
+    merge_map_files([tmp_path / name for _, name in steps], tmp_path / "fleet.aion")
+    got = live_entries(tmp_path / "fleet.aion")
+    assert got["counts"].sum() == 2 * DURATION_S
 
 
 def _graph(t: int, ids: list[int], x: float) -> GraphSnapshot:
