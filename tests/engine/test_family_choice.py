@@ -290,3 +290,25 @@ def test_a_group_lends_the_profile_direction_only_on_two_scored_days() -> None:
         lent[days] = {direction[c] for c in chosen}
     assert lent[2.0] == {"profile"}
     assert lent[1.0] == {"static"}
+
+
+def test_group_sums_add_each_groups_rows_in_order_as_add_at_did() -> None:
+    """The groups' summed scores (``pooling.group_sums``, which the choice pools with) are the
+    same to the bit as adding each entry's row into zeros in entry order (``np.add.at``, what
+    the choice summed with at stop 68): scores of mixed magnitudes, whose float sums depend
+    on the order, groups in any order and one group with no member (zeros)."""
+    from aion_cli.engine.temporal.pooling import group_sums
+
+    rng = np.random.default_rng(11)
+    scores = rng.standard_normal((5000, 7)) * 10.0 ** rng.integers(-6, 9, (5000, 7))
+    groups = rng.integers(0, 40, 5000)
+    groups[groups == 17] = 18  # group 17 has no member
+    expected = np.zeros((40, 7))
+    np.add.at(expected, groups, scores)
+    got = group_sums(groups, 40, scores)
+    assert got.tobytes() == expected.tobytes()
+    assert not got[17].any()
+    # the order matters to the bits (so the comparison above could fail): summed backwards
+    backwards = np.zeros((40, 7))
+    np.add.at(backwards, groups[::-1], scores[::-1])
+    assert backwards.tobytes() != expected.tobytes()

@@ -53,6 +53,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pooling import group_sums
 from aion_cli.engine.types import F64, I64
 
 CHOICE_RULES = 3
@@ -186,8 +187,7 @@ def choose_families(
     e = len(groups)
     # flow: map -> group -> entry
     map_flow = _choose(flow_score.sum(axis=0, keepdims=True), np.array([static]), flow_on, margin)
-    g_scores = np.zeros((n_groups, flow_score.shape[1]))
-    np.add.at(g_scores, groups, flow_score)
+    g_scores = group_sums(groups, n_groups, flow_score)
     group_flow = _choose(g_scores, np.full(n_groups, map_flow[0]), flow_on, margin)
     borrowed = np.where(group_flow[groups] == static, static, shape)
     if not flow_on[shape]:
@@ -240,11 +240,10 @@ def _pooled_days(
     (Lincoln trained on two days, the second pending: lent ``profile`` on the first day's
     score, its held-out heading NLL was 1.3886 against static's 1.3876)."""
     f = scores.shape[1]
-    g_scores = np.zeros((n_groups, f))
-    np.add.at(g_scores, groups, scores)
+    g_scores = group_sums(groups, n_groups, scores)
     gain_sq, days = (np.zeros((n_groups, f)), np.zeros(n_groups))
     if consistency is not None:
-        np.add.at(gain_sq, groups, consistency[0])
+        gain_sq = group_sums(groups, n_groups, consistency[0])
         days = np.bincount(groups, consistency[1], minlength=n_groups).astype(np.float64)
         most = np.zeros(n_groups)
         np.maximum.at(most, groups, consistency[1])

@@ -95,12 +95,12 @@ class PoolStats:
                 hourly += group_hourly(state.cnt_profile, r, g, n_groups, b)
             s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
             w_e = rows_of(state.obs.profile, r) + glob
-            s_g += _group_sums(g, n_groups, s_e)
-            w_g += _group_sums(g, n_groups, w_e)
+            s_g += group_sums(g, n_groups, s_e)
+            w_g += group_sums(g, n_groups, w_e)
             directed = (
                 count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
             )
-            c_g += _group_sums(g, n_groups, directed)
+            c_g += group_sums(g, n_groups, directed)
             if counts is None:  # kept for the direction prior's estimate (counts hold them)
                 directed_blocks.append(np.asarray(directed, np.float64))
             if rows.size <= _POOL_BLOCK:
@@ -189,7 +189,7 @@ def count_sums(counts: Any, axis: int) -> Any:
 _SUBSCRIPTS = {0: "evh->vh", 1: "evh->eh", 2: "evh->ev"}
 
 
-def _group_sums(groups: I64, n_groups: int, values: F64) -> F64:
+def group_sums(groups: I64, n_groups: int, values: F64) -> F64:
     """Σ of the rows of ``values`` per group, float64[G, C]: each group's rows added in row
     order from zero, as the sparse indicator product this replaces added them (so the sums
     are the same to the bit), in one ``bincount`` over (group, column) keys and without
