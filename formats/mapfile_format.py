@@ -16,7 +16,7 @@ import numpy.typing as npt
 from aion_cli.errors import AionError, MapFileError, MapVersionError
 
 MAP_FORMAT = "aion-map"
-MAP_VERSION = (2, 2)
+MAP_VERSION = (2, 3)
 MANIFEST_NAME = "manifest.json"
 MEMBER_SUFFIX = ".npy"
 

@@ -51,7 +51,7 @@ def test_a_map_written_before_the_member_is_read_and_continued(tmp_path: Path) -
     with zipfile.ZipFile(new) as zin:
         contents = {n: zin.read(n) for n in zin.namelist() if n != "temporal_day_level.npy"}
     manifest = json.loads(contents["manifest.json"])
-    assert manifest["version"] == "2.2"
+    assert manifest["version"] == "2.3"
     manifest["version"] = "2.0"
     del manifest["members"]["temporal_day_level"]
     contents["manifest.json"] = json.dumps(manifest).encode()
@@ -62,6 +62,6 @@ def test_a_map_written_before_the_member_is_read_and_continued(tmp_path: Path) -
     assert run("predict", old, "--layer", "rooms", "-q").exit_code == 0
     assert run("build", *logs[2:], "--map", old, "-q").exit_code == 0
     arrays, written = read_map(old)
-    assert written["version"] == "2.2"
+    assert written["version"] == "2.3"
     # day 0 closed before (in the 2.0 map: no sums), days 1 and 2 closed since
     assert arrays["temporal_day_level"][0].max() == 2

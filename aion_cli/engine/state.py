@@ -36,6 +36,7 @@ from aion_cli.engine.temporal.groups import entry_groups, sorted_group_keys
 from aion_cli.engine.temporal.held_days import DeferredDays
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
+from aion_cli.engine.temporal.pool_priors import PoolPriors
 from aion_cli.engine.temporal.provisional import ProvisionalScores
 from aion_cli.engine.types import F64, I64, U64, GraphSnapshot
 from aion_cli.engine.windows import window_centre_ns, window_ns
@@ -83,6 +84,11 @@ class MapState:
         default=None, init=False, repr=False, compare=False
     )
     _provisional: tuple[_StateKey, ProvisionalScores | None] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
+    #: the pooling's prior strengths the map file stores for this state's query view
+    #: (``engine.temporal.pool_priors``), keyed as the view
+    _priors: tuple[_StateKey, PoolPriors] | None = field(
         default=None, init=False, repr=False, compare=False
     )
     _days: dict[int, int] = field(default_factory=dict, init=False, repr=False, compare=False)
@@ -256,6 +262,7 @@ class MapState:
         if self._view is not None and self._view[0] == key:
             return self._view[1]
         provisional = self.provisional_scores()  # before the view absorbs the pending day
+        priors = self._priors if self._priors is not None and self._priors[0] == key else None
         view = query_state.query_view(
             self.params,
             self.temporal,
@@ -270,6 +277,8 @@ class MapState:
             self.entries.clear_window()
             key = self._view_key()
         self._view = (key, view)
+        if priors is not None:  # the stored priors are this view's
+            self._priors = (key, priors[1])
         return view
 
     def provisional_scores(self) -> ProvisionalScores | None:
@@ -307,9 +316,14 @@ class MapState:
         if self._predictor is None or self._predictor[0] != key:
             groups, n_groups = self.groups(rows)
             stored = None if view.fourier_loaded else self.components
+            priors = self._priors[1] if self._priors and self._priors[0] == key else None
+            if priors is not None and not priors.fits(rows.size, n_groups):
+                priors = None
             self._predictor = (
                 key,
-                temporal_model.Predictor.of(self.params, view, rows, groups, n_groups, stored),
+                temporal_model.Predictor.of(
+                    self.params, view, rows, groups, n_groups, stored, priors
+                ),
             )
         return rows, self._predictor[1]
 

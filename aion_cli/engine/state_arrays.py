@@ -1,8 +1,9 @@
 """A :class:`~aion_cli.engine.state.MapState` to plain arrays and back (a map file's members).
 
 :func:`map_state_to_arrays` gathers the entries in canonical order with their temporal rows,
-FreMEn components, provisional scores, pending day, held days, node table, redirects,
-observation source and graph; :func:`map_state_from_arrays` checks and reads them back.
+FreMEn components, the pooling's prior strengths, provisional scores, pending day, held days,
+node table, redirects, observation source and graph; :func:`map_state_from_arrays` checks
+and reads them back.
 ``MapState.to_arrays`` / ``MapState.from_arrays`` call these. They are apart from
 ``state.py`` because persistence is one job (which members, in which order, checked how)
 that the state's build and query methods never call: ``state.py`` keeps what a state does,
@@ -32,7 +33,9 @@ from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.held_days import DeferredDays
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import PendingDay
+from aion_cli.engine.temporal.pool_priors import PoolPriors
 from aion_cli.engine.temporal.provisional import ProvisionalScores
+from aion_cli.engine.view_priors import view_priors
 from aion_cli.errors import MapCorruptError
 
 if TYPE_CHECKING:
@@ -48,6 +51,9 @@ def map_state_to_arrays(
     callers; every large member is streamed), so writing needs no second copy of the
     largest part of the state."""
     del lazy
+    # the query view's priors first: computing them absorbs and restores the pending day and
+    # the open window in place, before any member is gathered
+    priors = {} if state.deferred is not None else view_priors(state).to_arrays()
     order = state.entries.canonical_order()
     arrays: dict[str, Any] = state.entries.to_arrays(order)
     arrays.update(state.temporal.to_arrays("temporal_", order))
@@ -55,6 +61,7 @@ def map_state_to_arrays(
     position[order] = np.arange(order.size)
     if state.deferred is None:  # a part map forecasts nothing
         arrays.update(state.forecast_components(order).to_arrays(state.params.n_periods))
+        arrays.update(priors)  # computed afresh on every write
         provisional = state.provisional_scores()
         if provisional is not None:
             arrays.update(provisional.to_arrays(position))
@@ -156,6 +163,9 @@ def map_state_from_arrays(
     provisional = ProvisionalScores.from_arrays(arrays, entries.n, params)
     if provisional is not None and state.pending and deferred is None:
         state._provisional = (state._view_key(), provisional)
+    priors = PoolPriors.from_arrays(arrays)
+    if priors is not None and not writable and deferred is None:  # for this state's view
+        state._priors = (state._view_key(), priors)
     check_ownership(state)
     check_loaded(state, arrays)
     state.rebuild_routes()

@@ -155,7 +155,7 @@ def test_a_map_written_before_the_member_continues_into_one_with_it(tmp_path: Pa
     assert "calendar" not in run("info", old).stdout
     _build([second], old, "--map", old)
     arrays, written = read_map(old)
-    assert written["version"] == "2.2"
+    assert written["version"] == "2.3"
     # days 0-6 closed in the 2.1 map (no sums); since: its pending Monday (7) and 8-13 closed,
     # one of each weekday, the last Monday (14) pending
     days = arrays["temporal_week_sums"][0].reshape(7, 24).max(axis=1)

@@ -45,7 +45,7 @@ def test_manifest_carries_container_and_caller_fields(written: Path) -> None:
     _, manifest = read_map(written)
     assert manifest["format"] == "aion-map"
     # format 2: the temporal model's state; .1: day levels; .2: week sums
-    assert manifest["version"] == "2.2"
+    assert manifest["version"] == "2.3"
     assert manifest["creator"] == f"aion {__version__}"
     assert manifest["created"].endswith("Z")
     assert manifest["config"] == {"bins": 8}

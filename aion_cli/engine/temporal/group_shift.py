@@ -21,8 +21,9 @@ east, a cell of its north-south one the morning's north.
 (group, profile bin) rows around their group's histogram, as κ_t is over an entry's. Where no
 group's directions keep to the hour the likelihood keeps rising to the top of the range: the
 map then has no shift (``None``) and every forecast is the one before (the static histogram
-is the prior, as it was). Nothing is stored: the shift is recomputed from the accumulators
-wherever the groups' shapes are, so continuation and merges stay exact.
+is the prior, as it was). The shift is recomputed from the accumulators wherever the groups'
+shapes are, so continuation and merges stay exact; only κ_G's estimate is kept with a map
+when it is written (:mod:`.pool_priors`), so a query does not search for it again.
 """
 
 from __future__ import annotations
@@ -59,14 +60,18 @@ class GroupShift:
         histogram: F64,
         unseen: npt.NDArray[np.bool_] | None,
         bins_per_day: int,
+        kappa: float | None = None,
     ) -> GroupShift | None:
         """From C[g, b, h] (:func:`group_hourly`) and the groups' histograms p[g, b]; None
-        where κ_G says no group's hours differ (or too few (group, bin) rows tell)."""
+        where κ_G says no group's hours differ (or too few (group, bin) rows tell).
+        ``kappa``: κ_G as estimated from these counts before (a map stores it:
+        :mod:`.pool_priors`), or None to estimate it."""
         g, b, h = hourly.shape
         counts = by_hour(hourly, unseen, bins_per_day).transpose(0, 2, 1)  # [G, H, B]
         rows = counts.reshape(-1, b)
         parent = np.repeat(histogram, h, axis=0)
-        kappa = fitted_kappa(rows, parent, fallback=KAPPA_RANGE[1], low=TIME_KAPPA_LOW)
+        if kappa is None:
+            kappa = fitted_kappa(rows, parent, fallback=KAPPA_RANGE[1], low=TIME_KAPPA_LOW)
         if kappa >= _NO_SHIFT:
             return None
         total = row_sums(rows, keepdims=True)

@@ -29,6 +29,7 @@ from aion_cli.engine.temporal.day_level import level_variance
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows, PendingDay
+from aion_cli.engine.temporal.pool_priors import PoolPriors
 from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
 from aion_cli.engine.temporal.query_state import choose, observed_bins
 from aion_cli.engine.temporal.scoring import close_day
@@ -204,12 +205,14 @@ class Predictor:
         groups: I64,
         n_groups: int,
         components: FremenComponents | None = None,
+        priors: PoolPriors | None = None,
     ) -> Predictor:
         """The forecasts of entries ``rows`` of ``state`` (a query view); ``components``:
         FreMEn components stored in the map for these very rows (a state read without its
-        Fourier sums)."""
+        Fourier sums); ``priors``: the pooling's prior strengths the map stores for this very
+        view (``PoolStats.of``)."""
         counts, totals = entry_sums(state, rows)  # summed once for the pooling and the forecast
-        pool = PoolStats.of(params, state, rows, groups, n_groups, counts, totals)
+        pool = PoolStats.of(params, state, rows, groups, n_groups, counts, totals, priors)
         fc = Forecaster(params, state, rows, groups, pool, components, counts)
         flow_choice, dir_choice, map_choice = choose(
             params, state, rows, groups, n_groups, components

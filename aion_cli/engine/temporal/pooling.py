@@ -27,6 +27,7 @@ from aion_cli.engine.temporal.direction_prior import (
 )
 from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hourly_priors
 from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.pool_priors import PoolPriors
 from aion_cli.engine.temporal.shape_prior import group_shapes, overdispersion, unseen_bins
 from aion_cli.engine.types import F64, I64
 
@@ -74,16 +75,20 @@ class PoolStats:
         n_groups: int,
         counts: F64 | None = None,
         totals: Any = None,
+        priors: PoolPriors | None = None,
     ) -> PoolStats:
         """Pool the entries ``rows`` (all live entries) into their groups. ``counts``: their
         :func:`entry_counts`, when the caller has them already (a query's forecast needs them
         for every entry too; a day's scoring builds them block by block instead); ``totals``:
         their detections per profile bin S[e, h], when :func:`entry_sums` summed them with
-        the counts."""
+        the counts; ``priors``: κ, κ_t and κ_G as estimated from these very accumulators
+        (a map stores them: :mod:`.pool_priors`), taken instead of estimated again."""
         b, h = params.bins, params.n_profile
         s_g, w_g = np.zeros((n_groups, h)), np.zeros((n_groups, h))
         c_g = np.zeros((n_groups, b))
         timed = bool(params.direction_enabled[1:].any())  # families after ``static``
+        if priors is not None and priors.kappa_g is None:
+            timed = False  # no shift: the groups' hourly counts are not needed
         hourly = np.zeros((n_groups, b, h)) if timed else None
         directed_blocks = []
         glob = state.glob.profile[0]
@@ -115,16 +120,19 @@ class PoolStats:
             held = np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
             return held, histograms[groups]
 
-        kappa = entry_prior(params.config, directed_counts)
+        known = priors is not None
+        kappa = priors.kappa if known else entry_prior(params.config, directed_counts)
         unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
         shift = None
         if hourly is not None:
-            shift = GroupShift.of(hourly, histograms, unseen, params.calendar.bins_per_day)
+            per_day = params.calendar.bins_per_day
+            kappa_g = None if priors is None else priors.kappa_g
+            shift = GroupShift.of(hourly, histograms, unseen, per_day, kappa_g)
 
         def per_bin() -> tuple[F64, F64]:
             return per_bin_directed(state, rows, *directed_counts(), kappa, groups, shift)
 
-        kappa_t = time_prior(params.config, per_bin)
+        kappa_t = priors.kappa_t if priors is not None else time_prior(params.config, per_bin)
         return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen, shift)
 
 
