@@ -120,8 +120,7 @@ class PoolStats:
             held = np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
             return held, histograms[groups]
 
-        known = priors is not None
-        kappa = priors.kappa if known else entry_prior(params.config, directed_counts)
+        kappa = priors.kappa if priors is not None else entry_prior(params.config, directed_counts)
         unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
         shift = None
         if hourly is not None:
