@@ -4,8 +4,8 @@ is written (:mod:`~aion_cli.engine.temporal.pool_priors`).
 A query of a map file absorbs the pending day and the open window into the accumulators it
 read, unscored (``MapState.query_temporal``), and pools its forecasts over that view. The
 writer computes the same view's κ, κ_t and κ_G without copying the accumulators (a build's
-are dense, 1.2 GB on a map of 10^5 entries): it saves the rows the pending day and the open
-window touch, absorbs them in place, pools, and puts every touched value back, so the state
+are dense, 1.2 GB on a map of 10^5 entries): it saves the cells the pending day and the open
+window add to, absorbs them in place, pools, and puts every saved value back, so the state
 it writes, and goes on learning with, is unchanged to the bit (tested).
 """
 
@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.closing import open_window_record
-from aion_cli.engine.temporal.absorption import absorb
-from aion_cli.engine.temporal.accumulators import _ADDITIVE, TemporalState
+from aion_cli.engine.temporal.absorption import absorb, slot_times
+from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pool_priors import PoolPriors
@@ -49,31 +49,65 @@ def view_priors(state: MapState) -> PoolPriors:
 def absorbed(
     params: TemporalParams, t: TemporalState, parts: list[DayWindows], window_ns: int
 ) -> Iterator[None]:
-    """``parts`` absorbed into ``t`` in place while the block runs, then taken out again:
-    the rows they touch, the global block and the map-wide sums are saved before and put
-    back after (the arrays themselves too, should absorbing have widened one), with the
-    state's generation and high-water mark."""
+    """``parts`` absorbed into ``t`` in place while the block runs, then taken out again.
+
+    Only what absorbing writes is saved and put back: the count cells (entry, value bin,
+    profile bin) and the observation cells (entry, profile bin) the parts hold, their
+    entries' windows and ends, the global block and the map-wide sums (in the very arrays,
+    should absorbing have put new ones in their place), with the state's generation and
+    high-water mark. The Fourier sums are set aside meanwhile (absorbed as a query's state
+    without them absorbs: the pooling never reads them), so nothing of them is copied: the
+    cells saved are a day's, not whole rows (a build's counts are dense, 12 KB an entry)."""
     if not parts:
         yield
         return
-    touched = np.unique(np.concatenate([np.concatenate([p.obs_entry, p.cnt_entry]) for p in parts]))
-    touched = touched.astype(np.int64, copy=False)
-    saved = t.take(touched)  # copies of the rows, the global block and the map-wide sums
-    arrays = {name: getattr(t, name) for name in (*_ADDITIVE, *_MAP_SUMS)}
-    obs, glob, generation, high_water = t.obs, t.glob, t.generation, t.high_water
+    v, h = params.values, params.n_profile
+    cells, rows, seen = [], [], []
+    for part in parts:
+        bins = slot_times(params, part, window_ns)[1]
+        pair, value = np.nonzero(part.cnt_values)
+        cells.append((part.cnt_entry[pair] * v + value) * h + bins[part.cnt_slot[pair]])
+        own, slot, _ = part.own_pairs()
+        rows.append(own)
+        seen.append(own * h + bins[slot])
+    count_cells, own_rows, own_cells = (
+        np.unique(np.concatenate(c)).astype(np.int64) for c in (cells, rows, seen)
+    )
+    counts, obs, glob = t.cnt_profile, t.obs, t.glob
+    flat_counts, flat_profile = _flat(counts), _flat(obs.profile)
+    saved_counts, saved_profile = flat_counts[count_cells], flat_profile[own_cells]
+    saved_obs = {name: getattr(obs, name)[own_rows] for name in ("n", "first", "last")}
+    saved_glob = glob.take([0])
+    sums = {name: getattr(t, name) for name in _MAP_SUMS}
+    saved_sums = {name: array.copy() for name, array in sums.items()}
+    fourier, obs_fourier, loaded = t.cnt_fourier, obs.fourier, t.fourier_loaded
+    generation, high_water = t.generation, t.high_water
+    t.cnt_fourier = np.zeros((t.n_rows, v, 0), np.complex128)
+    obs.fourier, t.fourier_loaded = np.zeros((t.n_rows, 0), np.complex128), False
     try:
         for part in parts:
             absorb(params, t, part, window_ns)
         yield
     finally:  # the very arrays back (a writer may hold them), their values put back in place
-        for name, array in arrays.items():
+        t.cnt_profile, t.obs, t.glob = counts, obs, glob
+        t.cnt_fourier, obs.fourier, t.fourier_loaded = fourier, obs_fourier, loaded
+        flat_counts[count_cells] = saved_counts
+        flat_profile[own_cells] = saved_profile
+        for name, values in saved_obs.items():
+            getattr(obs, name)[own_rows] = values
+        glob.put(np.zeros(1, np.int64), saved_glob)
+        for name, array in sums.items():
             setattr(t, name, array)
-        t.obs, t.glob = obs, glob
-        t.put_rows(touched, saved, np.arange(touched.size))
-        glob.put(np.zeros(1, np.int64), saved.glob)
-        for name in _MAP_SUMS:
-            getattr(t, name)[...] = getattr(saved, name)
+            array[...] = saved_sums[name]
         t.generation, t.high_water = generation, high_water
+
+
+def _flat(values: np.ndarray) -> np.ndarray:
+    """``values`` as one axis, a view (absorbing writes the counts through such a view)."""
+    flat = values.reshape(-1)
+    if not np.shares_memory(flat, values):
+        raise ValueError("the accumulators are not contiguous")
+    return flat
 
 
 _MAP_SUMS = ("window_chi2", "day_level", "week_sums")
