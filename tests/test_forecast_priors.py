@@ -95,16 +95,27 @@ def test_a_map_forecasts_the_same_with_its_priors_and_without(
         assert a.variance.tobytes() == b.variance.tobytes()
 
 
-def test_writing_the_priors_leaves_the_state_as_it_was(sample_map: Path) -> None:
+@pytest.mark.parametrize("kind", ["robot", "fixed"])
+def test_writing_the_priors_leaves_the_state_as_it_was(sample_map: Path, kind: str) -> None:
     """Absorbing the pending day and the open window in place and putting them back: every
     accumulator, the global block and the map-wide sums hold the same bits afterwards, and
-    the state's generation (its cached forecasts' key) and high-water mark are unchanged."""
-    state = load_map(sample_map, writable=True).state
+    the state's generation (its cached forecasts' key) and high-water mark are unchanged. The
+    bundled sample's map (a robot: its entries' own windows) read to be continued, and the
+    benchmark's state in memory (a fixed sensor: the global block; a pending day)."""
+    if kind == "robot":
+        state = load_map(sample_map, writable=True).state
+        assert view_priors(state) == _stored(sample_map)
+    else:
+        from benchmarks.bench_engine import build_state
+
+        state = build_state(400)
+        assert state.pending
+        assert state.observation.to_arrays()["obs_fixed_start"].size
     t = state.temporal
     before = t.copy()
     generation, high_water = t.generation, t.high_water
     priors = view_priors(state)
-    assert priors == _stored(sample_map)
+    assert priors.entries == state.entries.canonical_order().size
     after = t.copy()
     for name in ("cnt_fourier", "cnt_profile", "flow_score", "dir_score", "window_chi2",
                  "day_level", "week_sums"):  # fmt: skip
@@ -114,6 +125,7 @@ def test_writing_the_priors_leaves_the_state_as_it_was(sample_map: Path) -> None
             old, new = getattr(getattr(before, block), field), getattr(getattr(after, block), field)
             assert new.tobytes() == old.tobytes(), (block, field)
     assert (t.generation, t.high_water) == (generation, high_water)
+    assert t.fourier_loaded
 
 
 def _doctored(path: Path) -> PoolPriors:
