@@ -313,11 +313,15 @@ def input_rows(
 def calendar_text(calendar: dict[str, Any], profile: str) -> str:
     """The ``calendar`` row of ``aion info``: the calendar the map's closed days ask for
     (``families.calendar``, :mod:`aion_cli.engine.temporal.week_evidence`) and the one its
-    forecasts use (``profile``)."""
+    forecasts use (``profile``; a ``week`` map's follow the choice,
+    :mod:`aion_cli.engine.temporal.calendar_view`)."""
     from aion_cli.engine.temporal.week_evidence import MIN_DAYS
 
     gain, days = float(calendar.get("gain", 0.0)), int(calendar.get("weekday_days", 0))
     using = f"forecasts use profile = \"{profile}\""
+    if profile == "week":
+        using += (", the week's hours" if calendar.get("calendar") == "week" else
+                  ", its hours pooled into weekdays and weekends")
     if calendar.get("calendar") == "week":
         hint = "" if profile == "week" else (
             "; profile = \"week\" keeps each weekday's own hours (3.5 times an entry's "

@@ -177,7 +177,7 @@ class GridMoD:
         fc = pred.forecaster
         n, b = self.spec.n_cells, self.bins
         t = np.full(n, int(t_ns), np.int64)
-        h = self.params.calendar.profile_bin(t)
+        h = pred.params.calendar.profile_bin(t)  # the forecast's calendar (calendar_view)
         t_s = self.params.model_seconds(t)
         if static:
             return fc.bin_rates("static", self._rows, h, t_s)[:, :b]

@@ -23,6 +23,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.calendar_view import pooled_view
 from aion_cli.engine.temporal.choice import dispersion
 from aion_cli.engine.temporal.components import FremenComponents
 from aion_cli.engine.temporal.day_level import level_variance
@@ -210,7 +211,10 @@ class Predictor:
         """The forecasts of entries ``rows`` of ``state`` (a query view); ``components``:
         FreMEn components stored in the map for these very rows (a state read without its
         Fourier sums); ``priors``: the pooling's prior strengths the map stores for this very
-        view (``PoolStats.of``)."""
+        view (``PoolStats.of``). A ``week`` map whose evidence does not ask for the week
+        forecasts with its sums pooled into weekdays and weekends (:mod:`.calendar_view`), and
+        the predictor's ``params`` are then that profile's (its bins: ``params.calendar``)."""
+        params, state = pooled_view(params, state)
         counts, totals = entry_sums(state, rows)  # summed once for the pooling and the forecast
         pool = PoolStats.of(params, state, rows, groups, n_groups, counts, totals, priors)
         fc = Forecaster(params, state, rows, groups, pool, components, counts)

@@ -38,6 +38,7 @@ from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.absorption import absorb_day, slot_times, slot_utc_seconds
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.calendar_view import pooled_bins, pooled_view
 from aion_cli.engine.temporal.direction_scoring import direction_day_scores
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
@@ -100,7 +101,14 @@ def _score(
     t_s: F64,
     h: I64,
 ) -> I64:
-    """Score the day for every live entry observed on it and before it; returns those rows."""
+    """Score the day for every live entry observed on it and before it; returns those rows.
+    A ``week`` map scores with the calendar its evidence before the day gives
+    (:mod:`.calendar_view`: pooled into weekdays and weekends where it does not ask for the
+    week); the scores land in ``state``."""
+    written = state
+    params, state = pooled_view(params, state)
+    if state is not written:
+        h = pooled_bins(h, params.calendar.bins_per_day)
     if day.fixed.any():
         candidates = live_rows
     else:
@@ -127,6 +135,8 @@ def _score(
         fc.cache_profiles(at)  # every profile bin of every candidate is asked for
         fc.use_rotations(t_s, rot)  # its FreMEn terms at the day's pairs: the same table
         _score_block(params, state, block, rows, fc, t_s, h, rot)
+    if state is not written:
+        written.touch(candidates)  # the view's generation is its own
     return candidates
 
 

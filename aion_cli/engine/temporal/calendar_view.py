@@ -1,0 +1,105 @@
+"""The calendar a week-profile map forecasts with: the week's bins, or its weekdays' and
+weekends' pooled, as the map's own evidence says.
+
+A map of ``profile = "week"`` keeps its entries' sums per hour of the week (168 bins an
+hour a bin). Whether its data asks for them is what the map's week sums judge day ahead
+(:func:`~aion_cli.engine.temporal.week_evidence.calendar_choice`: ``week`` only when every
+weekday was observed on two days or more and the week's bins forecast the next day better by
+``family_margin`` nats). Where they say ``day_weekend`` (Lincoln's four days: one Friday
+standing for all Fridays), the forecast reads the same sums pooled into hours of weekdays
+and of weekends (:func:`pooled_view`): every profile-binned sum of a weekday bin summed over
+Monday–Friday at its hour, of a weekend bin over Saturday–Sunday — exactly the sums a
+``day_weekend`` map of the same days holds (the counts are whole numbers; the windows and
+``day_level`` add in another order, to the last bits) — with parameters of that profile, so
+the pooled map forecasts, scores and chooses its families as the ``day_weekend`` map does.
+Where they say ``week``, the week's bins are read as they are.
+
+The choice is the map's, from sums over days (``week_sums``), so a continued build and a merge
+make it as one build does; the day-ahead scoring of each day uses the calendar the map's
+evidence gave *before* that day (its scores are those of the forecast a query would have
+made then). A map of another profile is read as it is (``day_weekend``, the default, has no
+week's bins per entry to choose: its week sums are reported, :mod:`.week_evidence`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from functools import lru_cache
+
+import numpy as np
+
+from aion_cli.engine.config import ModelConfig
+from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.observation_block import ObsBlock
+from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.week_evidence import calendar_choice
+from aion_cli.engine.types import F64, I64
+
+
+def forecast_calendar(params: TemporalParams, state: TemporalState) -> str:
+    """The profile the forecast reads: the configured one, but ``day_weekend`` for a
+    ``week`` map whose evidence does not ask for the week (module docstring)."""
+    profile = params.calendar.profile
+    if profile != "week":
+        return profile
+    choice = calendar_choice(state.week_sums, params.config.family_margin)
+    return "week" if choice["calendar"] == "week" else "day_weekend"
+
+
+def pooled_view(
+    params: TemporalParams, state: TemporalState
+) -> tuple[TemporalParams, TemporalState]:
+    """``(params, state)`` as the forecast reads them (module docstring): the same objects
+    unless a ``week`` map forecasts with ``day_weekend``; then parameters of that profile and
+    a view of ``state`` whose profile-binned sums (``cnt_profile``, the observation blocks'
+    ``profile``, ``day_level``) are pooled, every other array shared (scores written through
+    the view land in ``state``)."""
+    if forecast_calendar(params, state) == params.calendar.profile:
+        return params, state
+    per_day = params.calendar.bins_per_day
+    kind = pooled_bins(np.arange(params.n_profile), per_day)
+    view = dataclasses.replace(
+        state,
+        glob=_pooled_block(state.glob, kind, 2 * per_day),
+        obs=_pooled_block(state.obs, kind, 2 * per_day),
+        cnt_profile=_pool(state.cnt_profile, kind, 2 * per_day),
+        day_level=_pooled_level(state.day_level, kind, 2 * per_day),
+    )
+    return _day_weekend(params.config), view
+
+
+def pooled_bins(h: I64, bins_per_day: int) -> I64:
+    """The weekday/weekend bin of hour-of-the-week bins ``h`` (Monday 00:00 first)."""
+    week_h = np.asarray(h, dtype=np.int64)
+    out: I64 = np.mod(week_h, bins_per_day) + bins_per_day * (week_h // bins_per_day >= 5)
+    return out
+
+
+@lru_cache(maxsize=8)
+def _day_weekend(config: ModelConfig) -> TemporalParams:
+    return TemporalParams(dataclasses.replace(config, profile="day_weekend"))
+
+
+def _pool(values: np.ndarray, kind: I64, n_kinds: int) -> np.ndarray:
+    """``values[..., H]`` summed over the last axis into ``n_kinds`` bins by ``kind``
+    (integer counts stay integers)."""
+    out = np.zeros((*values.shape[:-1], n_kinds), dtype=values.dtype)
+    for k in range(kind.size):  # 168 column adds: no per-entry loop
+        out[..., kind[k]] += values[..., k]
+    return out
+
+
+def _pooled_block(block: ObsBlock, kind: I64, n_kinds: int) -> ObsBlock:
+    pooled: F64 = _pool(block.profile, kind, n_kinds)
+    return dataclasses.replace(block, profile=pooled)
+
+
+def _pooled_level(level: F64, kind: I64, n_kinds: int) -> F64:
+    """``day_level`` (float64[4, 2H], kind of slot × profile bin) pooled per kind of slot;
+    a map's empty sums stay empty."""
+    if level.size == 0:
+        return level
+    n_bins = kind.size
+    both = np.concatenate([kind, kind + n_kinds])  # fixed-sensor slots' columns after
+    out: F64 = _pool(level[:, : 2 * n_bins], both, 2 * n_kinds)
+    return out

@@ -1,0 +1,115 @@
+"""A ``profile = "week"`` map forecasts with the calendar its own evidence asks for
+(engine/temporal/calendar_view.py), on logs drawn from known rates
+(``benchmarks/forecast_scenarios.py``): a place busy on Wednesdays only keeps its week's
+hours (the market forecast on Wednesday, not spread over the weekdays); weekday rushes the same
+every week are forecast as the weekday/weekend map of the same logs forecasts them, to
+rounding; so are two days, too few to judge (one Monday standing for all Mondays)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from aion_cli import api
+from aion_cli.cli.info_map import calendar_text
+from aion_cli.engine.temporal.calendar_view import pooled_bins
+from benchmarks.forecast_scenarios import SCENARIOS, market_rates
+from tests.cli.conftest import run_json
+from tests.engine.test_week_evidence import TRAIN_DAYS, _build, _logs
+
+WEEK = 'profile = "week"\n'
+
+
+def _week_config(folder: Path) -> Path:
+    path = folder / "week.toml"
+    path.write_text(WEEK)
+    return path
+
+
+def _hourly_totals(site: Path, start: str, end: str) -> np.ndarray:
+    """The map's forecast total per hour at each hour from ``start`` to ``end`` (UTC)."""
+    table = api.Map.load(site).predict_series(start, end, "1h", tz="UTC", layer="cells")
+    return np.nansum(np.asarray(table.flow_per_hour, dtype=np.float64), axis=0)
+
+
+def _families(site: Path) -> object:
+    """The families chosen, counted (the observed bins are each profile's own)."""
+    doc = run_json("info", site, "--format", "json")["families"]
+    return {k: v for k, v in doc.items() if k not in ("calendar", "observed_bins")}
+
+
+@pytest.fixture(scope="module")
+def market_maps(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    folder = tmp_path_factory.mktemp("market_week")
+    logs = _logs("market", folder)
+    week = _build(logs, folder / "week.aion", "--config", _week_config(folder))
+    default = _build(logs, folder / "default.aion")
+    return week, default
+
+
+def test_a_weekday_market_is_forecast_on_its_weekday(market_maps: tuple[Path, Path]) -> None:
+    """15 days from Monday 2026-01-05: two Wednesdays with place 0 at 25 people an hour
+    08-14. The week map's evidence asks for the week, so the third Wednesday's 09-13 h are
+    forecast at most of the true total (29 an hour: 25 + 3 + 1; two Wednesdays, shrunk) and
+    Thursday's near 4.5, where the
+    weekday/weekend map of the same logs spreads the market over five weekdays (about
+    (25 + 4 · 0.5) / 5 + 4 = 9.4 both days)."""
+    week, default = market_maps
+    assert SCENARIOS["market"].zone == "UTC"
+    calendar = run_json("info", week, "--format", "json")["families"]["calendar"]
+    assert calendar["calendar"] == "week"
+    assert 'profile = "week", the week\'s hours' in calendar_text(calendar, "week")
+    hour = np.arange(9, 14)
+    truth_wed = market_rates(np.full(5, 2), hour, np.zeros(5)).sum(axis=1)  # per hour
+    truth_thu = market_rates(np.full(5, 3), hour, np.zeros(5)).sum(axis=1)
+    wed = _hourly_totals(week, "2026-01-21T09:00", "2026-01-21T13:00")
+    thu = _hourly_totals(week, "2026-01-22T09:00", "2026-01-22T13:00")
+    wed_default = _hourly_totals(default, "2026-01-21T09:00", "2026-01-21T13:00")
+    thu_default = _hourly_totals(default, "2026-01-22T09:00", "2026-01-22T13:00")
+    # two Wednesdays, each entry's week bins shrunk toward its parents': most of the market
+    assert (wed > 0.6 * truth_wed).all()
+    assert (wed < 1.25 * truth_wed).all()
+    # Thursday's hours from two Thursdays each (noisy hour by hour), near the truth in all
+    assert abs(thu.mean() - truth_thu.mean()) < 0.25 * truth_thu.mean()
+    # the default map cannot tell the days apart: the market spread over the weekdays
+    assert np.abs(wed_default - thu_default).max() < 0.2 * thu_default.min()
+    assert (np.abs(wed - truth_wed) < np.abs(wed_default - truth_wed)).all()
+    assert abs(thu.mean() - truth_thu.mean()) < abs(thu_default.mean() - truth_thu.mean())
+
+
+@pytest.mark.parametrize(("name", "days"), [("weekly", TRAIN_DAYS), ("weekly", 2)])
+def test_a_week_map_without_the_evidence_forecasts_as_weekdays_and_weekends(
+    name: str, days: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Weekday rushes and quiet weekends, the same every week (15 days: the week's day-ahead
+    gain is 0), or two days (no weekday closed twice, as Lincoln's four days): the week map's
+    evidence says ``day_weekend``, and it forecasts every hour of the next week exactly as
+    the weekday/weekend map of the same logs (the same sums pooled: families, scores and
+    flows alike), where the week's own bins would forecast a weekday it saw once (or never)
+    from that day alone."""
+    import tests.engine.test_week_evidence as evidence
+
+    monkeypatch.setattr(evidence, "TRAIN_DAYS", days)
+    logs = _logs(name, tmp_path)
+    week = _build(logs, tmp_path / "week.aion", "--config", _week_config(tmp_path))
+    default = _build(logs, tmp_path / "default.aion")
+    calendar = run_json("info", week, "--format", "json")["families"]["calendar"]
+    assert calendar["calendar"] == "day_weekend"
+    assert "its hours pooled into weekdays and weekends" in calendar_text(calendar, "week")
+    assert _families(week) == _families(default)
+    start, end = "2026-01-19T00:00", "2026-01-25T23:00"  # Monday to Sunday after 15 days
+    np.testing.assert_allclose(
+        _hourly_totals(week, start, end), _hourly_totals(default, start, end), rtol=1e-9
+    )
+
+
+def test_pooled_bins_are_the_weekday_and_weekend_hours() -> None:
+    """Monday 00 h is weekday hour 0, Friday 23 h weekday 23, Saturday 00 h weekend 0
+    (bin 24), Sunday 23 h weekend 23 (bin 47); with half-hour bins the same by 48."""
+    np.testing.assert_array_equal(pooled_bins(np.array([0, 4 * 24 + 23, 5 * 24, 167]), 24),
+                                  [0, 23, 24, 47])
+    np.testing.assert_array_equal(pooled_bins(np.array([48 * 2 + 5, 48 * 6 + 1]), 48),
+                                  [5, 48 + 1])
+
