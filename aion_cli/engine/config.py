@@ -127,7 +127,9 @@ class ModelConfig:
     more complex family only when it beats the simpler one by ``family_margin`` nats; with
     ``reconcile`` the entries' total follows the map's pooled profile. Days and
     the periodic ``profile`` (``day``, ``day_weekend`` or ``week`` with bins of
-    ``profile_bin_s``) follow the local clock of ``timezone``. An entry's profile is shrunk
+    ``profile_bin_s``) follow the local clock of ``timezone``; a ``week`` map forecasts with
+    its bins pooled into weekdays and weekends unless its week sums ask for the week
+    (``temporal.calendar_view``). An entry's profile is shrunk
     toward its borrowed shape with ``profile_prior`` pseudo-detections per bin; the map's and
     the groups' shapes by a strength estimated from the map itself (how bursty its window
     counts are and how much its bins vary beyond that: ``temporal.shape_prior``).

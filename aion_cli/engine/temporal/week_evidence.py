@@ -37,7 +37,10 @@ weighed and not taken: on the market scenario the map's Wednesday excess is one 
 multiplying the two flat places' forecasts by it would forecast them at 2.7 times their rate
 on Wednesday mornings and 0.57 times it on the other weekdays' (docs/EVALUATION.md,
 "Generated multi-week rhythms"). ``profile = "week"`` keeps each entry's own week, at 3.5
-times its profile bytes; ``aion info`` names it when the data asks for the week.
+times its profile bytes; ``aion info`` names it when the data asks for the week. Since stop
+69 a ``week`` map's forecasts follow the choice (:mod:`.calendar_view`): where the data does
+not ask for the week, its entries' sums are read pooled into weekdays and weekends, as a
+``day_weekend`` map of the same logs holds them.
 """
 
 from __future__ import annotations
