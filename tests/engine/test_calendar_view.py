@@ -112,4 +112,3 @@ def test_pooled_bins_are_the_weekday_and_weekend_hours() -> None:
                                   [0, 23, 24, 47])
     np.testing.assert_array_equal(pooled_bins(np.array([48 * 2 + 5, 48 * 6 + 1]), 48),
                                   [5, 48 + 1])
-
