@@ -15,6 +15,7 @@ import pytest
 from aion_cli import api
 from aion_cli.cli.info_map import calendar_text
 from aion_cli.engine.temporal.calendar_view import pooled_bins
+from aion_cli.engine.temporal.shape_prior import group_shapes, pool_week
 from benchmarks.forecast_scenarios import SCENARIOS, market_rates
 from tests.cli.conftest import run_json
 from tests.engine.test_week_evidence import TRAIN_DAYS, _build, _logs
@@ -112,3 +113,25 @@ def test_pooled_bins_are_the_weekday_and_weekend_hours() -> None:
                                   [0, 23, 24, 47])
     np.testing.assert_array_equal(pooled_bins(np.array([48 * 2 + 5, 48 * 6 + 1]), 48),
                                   [5, 48 + 1])
+
+
+def test_a_groups_week_departs_from_its_own_weekdays() -> None:
+    """Two groups watched 100 windows in every hour of the week, each 0.5 a window by day
+    (07-20) and 0.01 at night; the first also 10 a window on Wednesdays 08-14 (a market).
+    The map's Wednesday is the market's; the flat group's week is shrunk toward its own
+    weekdays, so its Wednesday 10 h equals its Thursday 10 h (toward the map's week it was
+    lifted by the market and its other weekdays lowered), while the market group's
+    Wednesday stays many times its Thursday."""
+    per_day = 24
+    hour = np.tile(np.arange(per_day), 7)
+    weekday = np.repeat(np.arange(7), per_day)
+    base = np.where((hour >= 7) & (hour < 20), 0.5, 0.01)
+    market = np.where((weekday == 2) & (hour >= 8) & (hour < 14), 10.0, base)
+    w = np.full((2, 7 * per_day), 100.0)
+    s = np.stack([market, base]) * w
+    shapes, _ = group_shapes(s, w, 1.0, bins_per_day=per_day)
+    wed, thu = 2 * per_day + 10, 3 * per_day + 10
+    assert shapes[1, wed] == pytest.approx(shapes[1, thu], rel=1e-12)
+    assert shapes[0, wed] > 5.0 * shapes[0, thu]
+    # the pooled weekday/weekend shapes are the same sums' (48 bins): a flat group's day
+    np.testing.assert_allclose(pool_week(w, per_day)[:, :per_day], 500.0)

@@ -12,7 +12,9 @@ Monday–Friday at its hour, of a weekend bin over Saturday–Sunday — exactly
 ``day_weekend`` map of the same days holds (the counts are whole numbers; the windows and
 ``day_level`` add in another order, to the last bits) — with parameters of that profile, so
 the pooled map forecasts, scores and chooses its families as the ``day_weekend`` map does.
-Where they say ``week``, the week's bins are read as they are.
+Where they say ``week``, the week's bins are read as they are, each level's week shrunk
+toward its own weekdays and weekends (:func:`~aion_cli.engine.temporal.shape_prior.
+group_shapes`).
 
 The choice is the map's, from sums over days (``week_sums``), so a continued build and a merge
 make it as one build does; the day-ahead scoring of each day uses the calendar the map's
@@ -32,6 +34,7 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.observation_block import ObsBlock
 from aion_cli.engine.temporal.params import TemporalParams
+from aion_cli.engine.temporal.shape_prior import pool_week, pooled_week_bins
 from aion_cli.engine.temporal.week_evidence import calendar_choice
 from aion_cli.engine.types import F64, I64
 
@@ -57,22 +60,19 @@ def pooled_view(
     if forecast_calendar(params, state) == params.calendar.profile:
         return params, state
     per_day = params.calendar.bins_per_day
-    kind = pooled_bins(np.arange(params.n_profile), per_day)
     view = dataclasses.replace(
         state,
-        glob=_pooled_block(state.glob, kind, 2 * per_day),
-        obs=_pooled_block(state.obs, kind, 2 * per_day),
-        cnt_profile=_pool(state.cnt_profile, kind, 2 * per_day),
-        day_level=_pooled_level(state.day_level, kind, 2 * per_day),
+        glob=_pooled_block(state.glob, per_day),
+        obs=_pooled_block(state.obs, per_day),
+        cnt_profile=pool_week(state.cnt_profile, per_day),
+        day_level=_pooled_level(state.day_level, per_day),
     )
     return _day_weekend(params.config), view
 
 
 def pooled_bins(h: I64, bins_per_day: int) -> I64:
     """The weekday/weekend bin of hour-of-the-week bins ``h`` (Monday 00:00 first)."""
-    week_h = np.asarray(h, dtype=np.int64)
-    out: I64 = np.mod(week_h, bins_per_day) + bins_per_day * (week_h // bins_per_day >= 5)
-    return out
+    return pooled_week_bins(h, bins_per_day)
 
 
 @lru_cache(maxsize=8)
@@ -80,26 +80,18 @@ def _day_weekend(config: ModelConfig) -> TemporalParams:
     return TemporalParams(dataclasses.replace(config, profile="day_weekend"))
 
 
-def _pool(values: np.ndarray, kind: I64, n_kinds: int) -> np.ndarray:
-    """``values[..., H]`` summed over the last axis into ``n_kinds`` bins by ``kind``
-    (integer counts stay integers)."""
-    out = np.zeros((*values.shape[:-1], n_kinds), dtype=values.dtype)
-    for k in range(kind.size):  # 168 column adds: no per-entry loop
-        out[..., kind[k]] += values[..., k]
-    return out
-
-
-def _pooled_block(block: ObsBlock, kind: I64, n_kinds: int) -> ObsBlock:
-    pooled: F64 = _pool(block.profile, kind, n_kinds)
+def _pooled_block(block: ObsBlock, bins_per_day: int) -> ObsBlock:
+    pooled: F64 = pool_week(block.profile, bins_per_day)
     return dataclasses.replace(block, profile=pooled)
 
 
-def _pooled_level(level: F64, kind: I64, n_kinds: int) -> F64:
-    """``day_level`` (float64[4, 2H], kind of slot × profile bin) pooled per kind of slot;
-    a map's empty sums stay empty."""
+def _pooled_level(level: F64, bins_per_day: int) -> F64:
+    """``day_level`` (float64[4, 2H]: robot slots' profile bins, then fixed-sensor slots')
+    pooled per kind of slot; a map's empty sums stay empty."""
     if level.size == 0:
         return level
-    n_bins = kind.size
-    both = np.concatenate([kind, kind + n_kinds])  # fixed-sensor slots' columns after
-    out: F64 = _pool(level[:, : 2 * n_bins], both, 2 * n_kinds)
+    robot, fixed = np.split(level, 2, axis=1)
+    out: F64 = np.concatenate(
+        [pool_week(robot, bins_per_day), pool_week(fixed, bins_per_day)], axis=1
+    )
     return out

@@ -48,11 +48,18 @@ flat. The price: an empty hour is judged alone, and under bursty counts one empt
 is weak evidence, so a short record of bursts forecasts nights at a few to a few tens of
 percent of the day where the c = 5 shapes, over-confident, said nearly 0 (a hierarchy of time
 blocks, tried, helps nights only where its blocks align with the rhythm).
+
+The week's bins (``profile = "week"`` where the map's evidence asks for the week,
+:mod:`.calendar_view`) add one level (:func:`_week_shapes`): each level's week is shrunk
+toward its own weekday/weekend shape, not toward the map's week, so one place's market day
+does not lift the other places' Wednesdays through the map's shape (docs/EVALUATION.md,
+stop 69).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -144,6 +151,8 @@ def group_shapes(
     rho_map = s_map.sum() / w_map.sum() if w_map.sum() > 0 else 0.0
     if rho_map <= 0:
         return np.ones_like(s_g), np.ones(s_g.shape[1])
+    if bins_per_day is not None and s_g.shape[1] == 7 * bins_per_day:
+        return _week_shapes(s_g, w_g, phi, bins_per_day)
     flat = np.full(s_map.shape, rho_map)
     c = prior_strength(s_map, w_map, flat, phi)
     r_map = (shrunk_rate(s_map, w_map, flat, c) if np.isfinite(c) else flat) / rho_map
@@ -165,6 +174,55 @@ def group_shapes(
     )
     out: F64 = np.where(busy[:, None], r_g, r_map[None, :])
     return out, r_map
+
+
+def _week_shapes(s_g: F64, w_g: F64, phi: float, bins_per_day: int) -> tuple[F64, F64]:
+    """:func:`group_shapes` of the week's bins (H = 7 × ``bins_per_day``): each level's
+    week shrunk toward *its own* weekday/weekend shape (the same sums pooled into Monday–
+    Friday and Saturday–Sunday, shaped as :func:`group_shapes` shapes them), with c = α·φ
+    estimated at each level as there. A group's Wednesday is then a departure from its own
+    weekdays, not from the map's Wednesday: a market at one place does not lift the quiet
+    places' Wednesdays (nor lower their other weekdays) through the map's shape. A bin no
+    window observed takes the weekday/weekend shape of its hour."""
+    kind = pooled_week_bins(np.arange(s_g.shape[1]), bins_per_day)
+    pooled_g, pooled_map = group_shapes(
+        pool_week(s_g, bins_per_day), pool_week(w_g, bins_per_day), phi, bins_per_day
+    )
+    s_map, w_map = s_g.sum(axis=0), w_g.sum(axis=0)
+    rho_map = s_map.sum() / w_map.sum()
+    prior_map = rho_map * pooled_map[kind]
+    c = prior_strength(s_map, w_map, prior_map, phi)
+    r_map = (shrunk_rate(s_map, w_map, prior_map, c) if np.isfinite(c) else prior_map) / rho_map
+    w_tot = w_g.sum(axis=1)
+    rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
+    prior = rho_g[:, None] * pooled_g[:, kind]
+    busy = rho_g > 0
+    c = prior_strength(s_g[busy], w_g[busy], prior[busy], phi)
+    r_g = np.divide(
+        shrunk_rate(s_g, w_g, prior, c) if np.isfinite(c) else prior,
+        rho_g[:, None],
+        out=np.zeros_like(s_g),
+        where=rho_g[:, None] > 0,
+    )
+    out: F64 = np.where(busy[:, None], r_g, r_map[None, :])
+    return out, r_map
+
+
+def pooled_week_bins(h: npt.ArrayLike, bins_per_day: int) -> I64:
+    """The weekday/weekend bin (0 .. 2 · ``bins_per_day`` − 1) of the week's bins ``h``
+    (Monday 00:00 first)."""
+    week_h = np.asarray(h, dtype=np.int64)
+    out: I64 = np.mod(week_h, bins_per_day) + bins_per_day * (week_h // bins_per_day >= 5)
+    return out
+
+
+def pool_week(values: npt.NDArray[Any], bins_per_day: int) -> npt.NDArray[Any]:
+    """``values[..., 7 · bins_per_day]`` (sums per hour of the week) summed into the hours
+    of weekdays and of weekends, ``[..., 2 · bins_per_day]`` (integer sums stay integers)."""
+    days = np.asarray(values).reshape(*np.shape(values)[:-1], 7, bins_per_day)
+    return np.concatenate(
+        [days[..., :5, :].sum(axis=-2), days[..., 5:, :].sum(axis=-2)], axis=-1
+    )
 
 
 def _unseen_kinds(
