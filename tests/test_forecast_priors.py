@@ -197,3 +197,15 @@ def test_priors_of_another_pooling_are_not_used() -> None:
 def test_damaged_priors_are_refused(values: np.ndarray) -> None:
     with pytest.raises(MapCorruptError, match=MEMBER):
         PoolPriors.from_arrays({MEMBER: values})
+
+
+def test_a_week_map_stores_the_priors_of_the_calendar_it_forecasts_with(tmp_path: Path) -> None:
+    """A ``profile = "week"`` map whose evidence does not ask for the week forecasts with its
+    sums pooled into weekdays and weekends (``calendar_view.pooled_view``): the priors it
+    stores are that pooled view's, so the map forecasts the same with the member and without."""
+    config = tmp_path / "week.toml"
+    config.write_text('profile = "week"\n')
+    week_map = tmp_path / "week.aion"
+    assert run("build", SAMPLE, "-o", week_map, "--config", config, "-q").exit_code == 0
+    assert json.loads(zipfile.ZipFile(week_map).read("manifest.json"))["families"]["calendar"]
+    assert _stored(week_map) == _estimated(week_map, tmp_path)

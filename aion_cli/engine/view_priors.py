@@ -20,6 +20,7 @@ import numpy as np
 from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.temporal.absorption import absorb, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
+from aion_cli.engine.temporal.calendar_view import pooled_view
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pool_priors import PoolPriors
@@ -31,7 +32,8 @@ if TYPE_CHECKING:
 
 def view_priors(state: MapState) -> PoolPriors:
     """κ, κ_t and κ_G as a query of ``state`` written to a file estimates them: over its
-    live entries in canonical order, pending day and open window absorbed."""
+    live entries in canonical order, pending day and open window absorbed, on the calendar
+    the forecast reads (a ``week`` map may pool its weeks: ``calendar_view.pooled_view``)."""
     rows = state.entries.canonical_order()
     groups, n_groups = state.groups(rows)
     parts = [state.pending.consolidated()] if state.pending else []
@@ -39,8 +41,9 @@ def view_priors(state: MapState) -> PoolPriors:
         parts.append(open_window)
     t = state.temporal
     with absorbed(state.params, t, parts, state.window_ns):
-        counts, totals = entry_sums(t, rows)
-        pool = PoolStats.of(state.params, t, rows, groups, n_groups, counts, totals)
+        params, view = pooled_view(state.params, t)  # the calendar the forecast reads
+        counts, totals = entry_sums(view, rows)
+        pool = PoolStats.of(params, view, rows, groups, n_groups, counts, totals)
     kappa_g = None if pool.shift is None else pool.shift.kappa
     return PoolPriors(pool.kappa, pool.kappa_t, kappa_g, int(rows.size), int(n_groups))
 
