@@ -10,7 +10,10 @@ reported by :meth:`GridMoD.stored_bytes`.
 It uses aion's own temporal code (``aion_cli.engine.temporal``) restricted to the static and
 FreMEn families (orders chosen per cell by the same day-ahead score), so differences between the
 two maps come from the spatial representation and from aion's other families, not from a second
-FreMEn implementation. Its predictions are the raw per-bin rates (no direction prior).
+FreMEn implementation. Its predictions are the raw per-bin rates (no direction prior). Under a
+robot it observes a cell in a window as aion observes an entry there, and counts the window by
+the same share (``ModelConfig.exposure``): with whole windows against aion's shares, Table I's
+flow rows had compared two observation rules rather than two maps (``docs/EVALUATION.md``).
 """
 
 from __future__ import annotations
@@ -103,7 +106,8 @@ class GridMoD:
 
         Without ``observation`` every cell is observed in every window (a fixed sensor, as for
         ATC); with it, a cell is observed in a window when the source says so for the cell's
-        centre (a robot's sensor range, as aion uses), and unobserved cells teach nothing.
+        centre (a robot's sensor range, as aion uses), for the share of the window aion would
+        count (its ``exposure``), and unobserved cells teach nothing.
         Detections without heading or outside the grid are ignored.
         """
         keep = np.isfinite(batch.heading) & np.all(np.isfinite(batch.xyz[:, :2]), axis=1)
@@ -132,32 +136,44 @@ class GridMoD:
         if self.normalise:
             values[:, :b] /= values[:, :b].max(axis=1, keepdims=True)
         cnt_slot, cnt_cell = np.divmod(group, self.spec.n_cells)
-        observed = self._observed(first, n_windows, window_ns, observation)
+        share = self._coverage(first, n_windows, window_ns, observation)
         windows = np.arange(first, last + 1, dtype=np.int64)
-        if observed is None:
+        weight = None
+        if share is None:
             fixed = np.ones(n_windows, bool)
             obs_entry = obs_slot = np.zeros(0, np.int64)
             self.windows_observed_per_cell += n_windows
         else:
             fixed = np.zeros(n_windows, bool)
-            observed[cnt_slot, cnt_cell] = True  # detections: observed whatever the source says
-            obs_slot, obs_entry = np.nonzero(observed)
-            self.windows_observed_per_cell += observed.sum(axis=0)
-        day = DayWindows(windows, fixed, obs_entry, obs_slot, cnt_cell, cnt_slot, values)
+            # detections: observed whatever the source says, a whole window where it says not
+            # (aion's own rule, engine.closing)
+            uncovered = share[cnt_slot, cnt_cell] == 0
+            share[cnt_slot[uncovered], cnt_cell[uncovered]] = 1.0
+            obs_slot, obs_entry = np.nonzero(share)
+            weight = share[obs_slot, obs_entry]
+            self.windows_observed_per_cell += share.sum(axis=0)
+        day = DayWindows(windows, fixed, obs_entry, obs_slot, cnt_cell, cnt_slot, values, weight)
         groups = np.zeros(self.spec.n_cells, np.int64)
         temporal.learn(self.params, self.state, day, self._rows, groups, 1, window_ns)
         self._predictor = None
 
-    def _observed(
+    def _coverage(
         self, first: int, n_windows: int, window_ns: int, observation: ObservationSource | None
-    ) -> npt.NDArray[np.bool_] | None:
-        """Observed mask bool[n_windows, n_cells] (None: every cell, a fixed sensor)."""
+    ) -> F64 | None:
+        """Per window and cell, the share of the window the cell's centre was observed in,
+        float64[n_windows, n_cells], as aion counts its entries' windows
+        (:meth:`ObservationSource.coverage`: the robot's exposure, at least
+        ``exposure_floor``, with ``exposure``, else 1 wherever in range; 1 for every cell in a
+        fixed sensor's window); 0 where unobserved. None: every cell, a fixed sensor."""
         if observation is None:
             return None
         centres = self.spec.centres()
+        ones = np.ones(self.spec.n_cells)
         return np.stack(
             [
-                observation.observed(centres, first + k, window_ns, self.config.sensor_range)
+                ones
+                if observation.fixed_covers(first + k, window_ns)
+                else observation.coverage(centres, first + k, window_ns, self.config)
                 for k in range(n_windows)
             ]
         )
@@ -207,8 +223,10 @@ class GridMoD:
 
 
 def expected_counts_per_window(grid: GridMoD) -> F64:
-    """Historical mean detections per observed window per cell (the grid's flow magnitude)."""
+    """Historical mean detections per observed window per cell (the grid's flow magnitude):
+    under a robot's exposure, per window watched, and never more than the cell's detections
+    (at least one window, as aion's rates, ``engine.temporal.forecast``)."""
     windows = grid.windows_observed_per_cell
     out = np.zeros(grid.spec.n_cells)
-    np.divide(grid.counts.sum(axis=1), windows, out=out, where=windows > 0)
+    np.divide(grid.counts.sum(axis=1), np.maximum(windows, 1.0), out=out, where=windows > 0)
     return out

@@ -7,7 +7,8 @@ Per scene (``docs/EVALUATION.md`` has the full definition):
    frame so aion and the grid see exactly the same detections.
 2. aion builds its map from the log through the real ``aion build`` pipeline.
 3. The grid (1 m, 8 bins, 600 s windows, max-normalised, FreMEn per cell and bin) learns from the
-   same detections, observing a cell in a window when the robot's sensor range covered it.
+   same detections, observing a cell in a window when the robot's sensor range covered it, for
+   the share of the window aion would count (its ``exposure``).
 4. aion's output is discretised onto the grid: each grid cell takes the nearest aion entry
    (node or unbound cell) within ``radius`` metres. Cells where both maps have flow are compared.
 5. Per map type, historical (counts) and predicted (FreMEn, averaged over ``eval_hours`` times of

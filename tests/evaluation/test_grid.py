@@ -9,6 +9,8 @@ import pytest
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
+from aion_cli.engine.observation import ObservationSource
+from aion_cli.engine.types import DetectionBatch, Trajectory
 from aion_cli.engine.windows import EPOCH_NS
 from aion_cli.evaluation.baselines import StaticHistogram, TimeOfDayHistogram
 from aion_cli.evaluation.grid import GridMoD, GridSpec, expected_counts_per_window
@@ -106,3 +108,34 @@ def test_time_of_day_histogram_separates_morning_and_afternoon() -> None:
     static.fit(batch)
     s_hist, _ = static.probabilities(query[:2], times[:2])
     assert np.allclose(s_hist[0], s_hist[1])
+
+
+@pytest.mark.parametrize("exposure", [True, False])
+def test_grid_under_a_robot_counts_windows_as_aion_does(exposure: bool) -> None:
+    """A robot watches place A for the first 70 % of each window and place B for the last
+    30 %; people pass both at 10 a window, so the robot sees 7 at A and 3 at B. With
+    ``exposure`` (aion's default) the grid counts each watched window by its share, as aion's
+    entries do, and reads 10 a window at both; without it, whole windows: 7 and 3."""
+    window, steps, n_windows = 600 * 10**9, 60, 6
+    t0 = (EPOCH_NS // window + 1000) * window
+    step = window // steps
+    k = np.arange(n_windows * steps)
+    at_a = k % steps < 42  # 42 of the 60 steps of every window
+    poses = np.where(at_a[:, None], [0.0, 0.0, 0.0], [20.0, 0.0, 0.0])
+    source = ObservationSource()
+    source.add_trajectory(Trajectory(t0 + k * step + step // 2, poses))
+    seen = k[(k % 6 == 0)]  # a detection every sixth step: 7 of them at A, 3 at B
+    xyz = np.where(at_a[seen, None], [0.5, 0.5, 0.0], [20.5, 0.5, 0.0])
+    batch = DetectionBatch.from_arrays(
+        t0 + seen * step + step // 2, xyz, np.zeros(seen.size), np.ones(seen.size),
+        np.arange(seen.size),
+    )
+    config = ModelConfig(window_s=600.0, exposure=exposure)
+    grid = GridMoD(GridSpec.covering(batch.xyz[:, :2], 1.0), config, normalise=False)
+    grid.fit(batch, t0, t0 + n_windows * window, source)
+    a, b = grid.spec.cell_of(np.array([[0.5, 0.5], [20.5, 0.5]]))
+    assert grid.historical()[[a, b]].sum(axis=1).tolist() == [42.0, 18.0]
+    want = [10.0, 10.0] if exposure else [7.0, 3.0]
+    np.testing.assert_allclose(expected_counts_per_window(grid)[[a, b]], want, rtol=1e-12)
+    static = grid.predict(t0, static=True)
+    np.testing.assert_allclose(static[[a, b]].sum(axis=1), want, rtol=1e-12)
