@@ -61,12 +61,17 @@ PLAN_COSTS = "; the plan's costs come from these extrapolated flows"
 
 
 def forecast_notes(
-    manifest: Manifest, t_ns: int, noun: str = "times", shown: Zone | None = None
+    manifest: Manifest,
+    t_ns: int,
+    noun: str = "times",
+    shown: Zone | None = None,
+    series: list[int] | None = None,
 ) -> list[str]:
     """The notes for a forecast at ``t_ns`` (UNIX ns) from the map of ``manifest``; empty
     when there is nothing to say. ``noun`` "departures": a plan's, whose costs are said to
     come from the flows of an hour no log observed. ``shown``: the zone the time is printed
-    in (``--tz``; default UTC), which :func:`unseen_day` names its day against."""
+    in (``--tz``; default UTC), which :func:`unseen_day` names its day against; ``series``:
+    the times ``t_ns`` belongs to, whose days of its kind :func:`unseen_day` names too."""
     notes = []
     static = all_static(manifest)
     if static is not None:
@@ -76,7 +81,7 @@ def forecast_notes(
     )
     if where is not None:
         notes.append(where)
-    unseen = None if static is not None else unseen_day(manifest, int(t_ns), shown)
+    unseen = None if static is not None else unseen_day(manifest, int(t_ns), shown, series)
     if unseen is not None:
         notes.append(unseen)
     from aion_cli.fixed_sensor import silent_advice
@@ -220,7 +225,9 @@ def far_from_data(
     )
 
 
-def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str | None:
+def unseen_day(
+    manifest: Manifest, t_ns: int, shown: Zone | None = None, series: list[int] | None = None
+) -> str | None:
     """The note for a time on a kind of day (weekend or weekday; with the weekly profile, a
     day of the week) that no day of the map's data span is, or that the span holds but no
     log observed (``observed_bins``: a fixed sensor whose tracker is silent when nobody is
@@ -228,7 +235,8 @@ def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str 
     map observed that kind of day (or, for a map that does not list its observed bins, its
     span holds one) or the profile does not tell days apart. The day is named with the
     map's zone where the time, printed in ``shown`` (default UTC), falls on another day of
-    the week there."""
+    the week there. ``series``: the times ``t_ns`` belongs to; the note names each day of
+    the week among them of the time's kind (a Saturday or Sunday), in the order reached."""
     import numpy as np
 
     from aion_cli.engine.temporal.calendar import weekday_of
@@ -254,7 +262,12 @@ def unseen_day(manifest: Manifest, t_ns: int, shown: Zone | None = None) -> str 
     # a day as the map's clock has it: say which clock where the time as printed is another
     # day (Friday 20:00 UTC is a Saturday in Tokyo; Sunday 00:30 in London, with --tz
     # Europe/London, a Saturday on a UTC map's clock)
-    day_name = words.WEEKDAYS[weekday] + (
+    named = [weekday]
+    if series and profile == "day_weekend":  # the series' days of this kind, as reached
+        reached = dict.fromkeys(int(d) for d in weekday_of(calendar.day(list(series))))
+        named = [d for d in reached if int(d >= 5) == kind]
+        named = named if weekday in named else [weekday, *named]
+    day_name = " or ".join(words.WEEKDAYS[d] for d in named) + (
         f" ({calendar.timezone} time)" if _weekday_in(t_ns, shown) != weekday else ""
     )
     if profile == "week":
@@ -304,7 +317,8 @@ def series_notes(
     times are printed in (:func:`unseen_day`)."""
     when = times_ns[0] if at is None else int(at)
     notes = [
-        n for n in forecast_notes(manifest, when, shown=shown) if not n.startswith(_NO_LOG)
+        n for n in forecast_notes(manifest, when, shown=shown, series=times_ns)
+        if not n.startswith(_NO_LOG)
     ]
     far = _far_end(manifest, times_ns, when, noun)
     if far is not None:
@@ -365,7 +379,7 @@ def _first_unseen_day(
     weekdays = weekday_of(calendar.day(list(times_ns)))
     _, first_of_weekday = np.unique(weekdays, return_index=True)
     for i in sorted(first_of_weekday.tolist()):
-        note = unseen_day(manifest, int(times_ns[i]), shown)
+        note = unseen_day(manifest, int(times_ns[i]), shown, times_ns)
         if note is not None:
             return note
     return None

@@ -333,19 +333,23 @@ def test_a_series_that_reaches_a_kind_of_day_the_map_never_saw_names_it() -> Non
     """A daily series Friday .. Monday from a map of weekdays: its Saturday and Sunday follow
     the weekdays' hours, as a --time on that Saturday says; the series' notes had been those
     of its first time (a Friday: seen) and said nothing. They now name the first unseen day
-    it reaches (2026-01-10 is a Saturday); a series of weekdays, or one on a map that saw
-    both kinds of day, adds nothing."""
+    it reaches (2026-01-10 is a Saturday), with every day of that kind it reaches: a series
+    over Saturday and Sunday had named the Saturday only. A series of weekdays, or one on a
+    map that saw both kinds of day, adds nothing."""
     weekdays = _week_of(5)
     friday_noon = MONDAY + 4 * DAY_NS + 12 * HOUR_NS  # Friday 2026-01-09
     days = [friday_noon + k * DAY_NS for k in range(4)]  # Fri, Sat, Sun, Mon
     saturday_note = forecast_notes(weekdays, days[1])
     (line,) = saturday_note
-    assert "a forecast for a Saturday" in line
-    assert series_notes(weekdays, days) == saturday_note
+    assert "a forecast for a Saturday follows" in line
+    both = [line.replace("a Saturday follows", "a Saturday or Sunday follows")]
+    assert series_notes(weekdays, days) == both
+    assert series_notes(weekdays, days[:2]) == saturday_note  # Friday and Saturday only
     assert series_notes(weekdays, [days[0], days[3]]) == []  # Friday and Monday: seen
     assert series_notes(_week_of(7), days) == []  # a whole week: both kinds seen
-    # a series that starts on the unseen day names it once
-    assert series_notes(weekdays, days[1:]) == saturday_note
+    # a series that starts on the unseen day names it once, with the Sunday it reaches
+    assert series_notes(weekdays, days[1:]) == both
+    assert series_notes(weekdays, days[1:], at=days[2]) == both  # asked at the Sunday
 
 
 def test_a_series_that_runs_far_past_the_data_says_so() -> None:
