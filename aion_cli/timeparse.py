@@ -49,6 +49,9 @@ FORMS_HINT = (
 )
 ZONE_HINT = 'use an IANA zone name ("Europe/Berlin", "UTC"), an offset ("+01:00") or "local"'
 
+DAY_SHIFTS = {"today": 0, "tomorrow": 1, "yesterday": -1}
+"""The day words, by the days they shift today (alone: now shifted, as GNU date)."""
+
 UNITS_S = {"w": 604800, "d": 86400, "h": 3600, "m": 60, "min": 60, "s": 1, "sec": 1}
 _WEEKDAYS = {
     name: i
@@ -427,8 +430,8 @@ def _parse_dayword(text: str, zone: Zone, current: datetime) -> int | None:
     if clock is None:
         return None
     today = current.date()
-    if word in ("today", "tomorrow", "yesterday"):
-        shift = {"today": 0, "tomorrow": 1, "yesterday": -1}[word]
+    if word in DAY_SHIFTS:
+        shift = DAY_SHIFTS[word]
         if not has_clock:  # GNU date semantics: "tomorrow" is now + 1 day
             return to_ns(current + timedelta(days=shift))
         day = today + timedelta(days=shift)

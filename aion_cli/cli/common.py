@@ -17,8 +17,10 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 TIME_HELP = (
     'When: "2026-11-23 08:30", "2026-11-23T08:30:00+01:00", "2026-11-23 08:30 Europe/Berlin", '
-    'UNIX seconds, "now", "+2h", "-30m", "tomorrow 12:00", "monday 08:30".'
+    'UNIX seconds, "now", "+2h", "-30m", "today 17:00", "tomorrow 12:00", "yesterday 08:30", '
+    '"monday 08:30".'
 )
+"""The forms ``--time`` reads, for its help; each day word of ``timeparse.DAY_SHIFTS``."""
 
 STEP_HELP = (
     "1h, 30m, 600s (elapsed time), or 1d, 1w (calendar days in the zone: the same "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime, timedelta, timezone
 
 import pytest
@@ -459,3 +460,22 @@ def test_a_time_in_milliseconds_is_refused_with_a_hint_that_reads_it_so(
     with pytest.raises(TimeFormatError) as whole_ns:  # nanoseconds without their unit
         parse_time(str(expected), UTCZ, NOW)
     assert f"append 'ns': {expected}ns" in (whole_ns.value.hint or "")
+
+
+def test_every_day_word_read_is_among_the_forms_help_and_readme_list() -> None:
+    """``--time yesterday 08:30`` was read but neither ``--help`` nor the README listed
+    yesterday (nor today): each day word the parser reads is now among their forms, and
+    the form they give reads as that day."""
+    from pathlib import Path
+
+    from aion_cli.cli.common import TIME_HELP
+    from aion_cli.timeparse import DAY_SHIFTS
+
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text(encoding="utf-8")
+    forms = readme.split("Times: ISO 8601", 1)[1][:300]  # the README's list of forms
+    for word, shift in DAY_SHIFTS.items():
+        (given,) = re.findall(rf'"({word} [0-9:]+)"', TIME_HELP)
+        assert f"`{given}`" in forms
+        clock = datetime.strptime(given.split()[1], "%H:%M").time()
+        expected = datetime.combine(NOW.date() + timedelta(days=shift), clock, UTC)
+        assert parse_time(given, UTCZ, NOW) == to_ns(expected)
