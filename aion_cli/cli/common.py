@@ -63,11 +63,32 @@ class AionPath(click.Path):
             here = os.path.realpath(value) == os.path.realpath(os.curdir)
             self.fail(
                 f"{value!r} is {'the current folder' if here else 'a folder'}, not a file: name "
-                f"a file in it (e.g. {os.path.join(value, 'NAME')})",
+                f"a file in it (e.g. {_file_in(value)}){_OR_ANOTHER * bool(_suffix(value))}",
                 param,
                 ctx,
             )
         return super().convert(value, param, ctx)
+
+
+def _file_in(folder: str) -> str:
+    """A file in ``folder`` to name instead of it, with the file ending its name has (a folder
+    ``maps.aion`` given as ``-o``: ``maps.aion/map.aion``; ``maps.aion/NAME`` had named a file
+    without the ending)."""
+    suffix = _suffix(folder)
+    if not suffix:
+        return os.path.join(folder, "NAME")
+    name = f"map{suffix}" if suffix.lower() == ".aion" else f"NAME{suffix}"
+    return os.path.join(folder, name)
+
+
+def _suffix(folder: str) -> str:
+    """The file ending of the name ``folder`` has (``.aion``), '' for none."""
+    suffix = os.path.splitext(os.path.basename(folder.rstrip("/" + os.sep)))[1]
+    return "" if suffix == os.extsep else suffix
+
+
+_OR_ANOTHER = " or another name for the file"
+"""Said after the file in a folder whose name ends like a file's: the user meant a file."""
 
 
 def _is_bag_folder(path: str) -> bool:

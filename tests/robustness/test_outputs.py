@@ -227,6 +227,14 @@ def test_build_output_must_be_a_map_or_new(office: Office, tmp_path: Path) -> No
     result = run("build", log, "-o", folder)
     assert result.exit_code == 2
     assert_one_error(result.stderr, "is a folder, not a file: name a file in it")  # -o's check
+    # a folder named as a map is: the file suggested in it is a map's (maps.aion/NAME had no
+    # .aion), or the map is to be named otherwise
+    maps = tmp_path / "maps.aion"
+    maps.mkdir()
+    result = run("build", log, "-o", maps)
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, f"(e.g. {maps / 'map.aion'}) or another name for the file")
+    assert list(maps.iterdir()) == []
     # an existing map is replaced (the build says so)
     target = office.copy_map(tmp_path / "m.aion")
     result = run("build", log, "-o", target)
