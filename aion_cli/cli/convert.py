@@ -302,7 +302,7 @@ def command(
     from_zero = layout in RELATIVE_LAYOUTS and start_text is None \
         and summary.start_ns < 1e9 * UNIX_S
     if from_zero:  # no zone gives 1970's hours a meaning: --start (and its zone) does
-        home = HOME_ZONES.get(layout)
+        home = None if mismatch is not None else HOME_ZONES.get(layout)  # doubted: not said
         note(
             f"{layout}: the file's times count from 0 and were written from 1970-01-01 00:00 "
             "UTC; give --start for when it was recorded"
@@ -373,4 +373,6 @@ def command(
         on_clock = [t for t in observed_text if any(map(read_on_a_clock, t.split("..")))]
         start_on_clock = start_text is not None and read_on_a_clock(start_text)
         if not from_zero:  # the note above says what to give: --start
-            note_utc_times(layout, output, start_on_clock, bool(on_clock))
+            note_utc_times(
+                layout, output, start_on_clock, bool(on_clock), doubted=mismatch is not None
+            )

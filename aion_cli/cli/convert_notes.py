@@ -15,20 +15,25 @@ from aion_cli.errors import path_word
 from aion_cli.number_text import counted
 
 
-def note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> None:
+def note_utc_times(
+    layout: str, output: Path, start: bool, observed: bool, doubted: bool = False
+) -> None:
     """Without ``--tz``: a note naming the times read in UTC (``--date``, ``--start``,
     ``--observed`` given as clock times, not UNIX ones) and, for a dataset recorded in a known
     place, its zone and what makes a map of local hours (times typed on the place's clock:
     converting again with ``--tz``; else ``aion build --tz``); ETH / UCY (recorded in several
     places) get the first part alone. Not for a file whose times count from 0 without
-    ``--start``: no zone gives 1970's hours a meaning, the note on ``--start`` says so."""
+    ``--start``: no zone gives 1970's hours a meaning, the note on ``--start`` says so.
+    ``doubted``: the file looks like another layout (a warning said so), whose place is not
+    asserted: the first part alone, as for ETH / UCY."""
     from aion_cli.cli.console import note
 
     given = [name for name, used in (
         ("--date", layout == "edinburgh"), ("--start", start), ("--observed", observed)) if used]
     read = (f" {' and '.join(given)} {'was' if len(given) == 1 else 'were'} read in UTC "
             "(give --tz)") if given else ""
-    if layout in HOME_ZONES and given:
+    home_known = layout in HOME_ZONES and not doubted
+    if home_known and given:
         # times typed on the place's clock are an hour or more off: the build's --tz cannot
         # mend them, converting again with --tz reads them right (and the log carries it)
         place, home = HOME_ZONES[layout]
@@ -39,14 +44,14 @@ def note_utc_times(layout: str, output: Path, start: bool, observed: bool) -> No
             f"which aion build follows); if {it} UTC, aion build {path_word(output)} --tz "
             f"{home} makes a map of {place}'s days and hours"
         )
-    elif layout in HOME_ZONES:
+    elif home_known:
         place, home = HOME_ZONES[layout]
         note(
             f"{layout}: the dataset was recorded in {place} ({home}): aion build takes a "
             f"map's days and hours in UTC unless told: aion build {path_word(output)} "
             f"--tz {home}"
         )
-    elif given and layout in RELATIVE_LAYOUTS:
+    elif given and (layout in RELATIVE_LAYOUTS or doubted):
         note(f"{layout}:{read}")
 
 

@@ -267,6 +267,10 @@ def test_a_layout_that_fits_the_columns_but_not_the_content_is_warned(tmp_path: 
     assert as_atc.exit_code == 0, as_atc.stderr
     assert "warning: thor.csv was read as the atc layout" in as_atc.stderr
     assert "--layout thor" in as_atc.stderr
+    # the layout is doubted: its place is not asserted ("the dataset was recorded in Osaka"
+    # had followed the warning that the file is THÖR's)
+    assert "Osaka" not in as_atc.stderr
+    assert "Asia/Tokyo" not in as_atc.stderr
     # --start with times of the other kind: a THÖR clock read as ATC's UNIX seconds, ATC's
     # UNIX seconds read as a THÖR clock (it put them in 2061), ATC's own (2068): refused
     # before anything is written, naming the layout and what to give
@@ -290,6 +294,10 @@ def test_a_layout_that_fits_the_columns_but_not_the_content_is_warned(tmp_path: 
     atc_as_thor = run("convert", atc, "--layout", "thor", "-o", tmp_path / "d.mcap")
     assert atc_as_thor.exit_code == 0, atc_as_thor.stderr
     assert "looks like the atc layout" in atc_as_thor.stderr
+    assert "Örebro" not in atc_as_thor.stderr
+    assert "Stockholm" not in atc_as_thor.stderr
+    # where the layout fits, its place is said
+    assert "the dataset was recorded in Örebro" in as_thor.stderr
     # a date in 1970, not the digits of pytest's numbered temporary folder (pytest-1970/)
     assert "from 1970-" not in atc_as_thor.stderr
 
