@@ -8,9 +8,10 @@ Situations that surprise people and look like defects when unexplained:
   for that (each day scored against the days before it): a map of one or two days (or of a
   few hours) has none, and forecasts the same at every hour unless its total is reconciled to
   a map-wide rhythm.
-* **The time lies outside the map's data**: before its first detection, or more than a week
-  after its last. The forecast is the rhythm the map learnt (its day and week), repeated; it
-  knows nothing of what changed since.
+* **The time lies far outside the map's data**: more than a week before its first detection
+  or after its last (a week, one turn of the longest rhythm learnt, either side). The
+  forecast is the rhythm the map learnt (its day and week), repeated; it knows nothing of
+  what changed since (or before).
 * **The time falls on a kind of day the map never saw**: a Saturday, from a map of weekdays
   only. The profiles keep weekdays and weekends apart (``profile = "day_weekend"``, the
   default, or every day of the week with ``"week"``), so a kind of day without data has no
@@ -54,6 +55,11 @@ hours' own rates where one hour of the day held most of the detections."""
 FAR_AFTER_NS = 7 * DAY_NS
 """Beyond this after a map's last data a forecast repeats a rhythm learnt long before; a
 week is one turn of the longest rhythm the default model learns."""
+
+FAR_BEFORE_NS = FAR_AFTER_NS
+"""Beyond this before a map's first data a forecast repeats a rhythm learnt long after: the
+same week, for the same reason (a time 52 seconds before the first detection, the night
+before it, had been said to lie before the map's data, as one months before)."""
 
 
 PLAN_COSTS = "; the plan's costs come from these extrapolated flows"
@@ -186,7 +192,7 @@ def _static_only(config: Mapping[str, Any]) -> str | None:
 def _outside(
     start_ns: int | None, end_ns: int | None, t_ns: int, static: bool, zone: str | None = None
 ) -> str | None:
-    """A note when ``t_ns`` lies before the map's data or over a week after it; the data's
+    """A note when ``t_ns`` lies over a week before or after the map's data; the data's
     days are given in the map's zone (``zone``, UTC when None), as ``info`` shows them."""
     far = far_from_data(start_ns, end_ns, t_ns, zone)
     if far is None:
@@ -211,12 +217,12 @@ def far_from_data(
     start_ns: int | None, end_ns: int | None, t_ns: int, zone: str | None = None
 ) -> str | None:
     """``"47 weeks after the map's data (2026-01-05 to 2026-01-09)"`` when ``t_ns`` lies
-    before the map's data or over a week after it (:data:`FAR_AFTER_NS`), its days in the
-    map's zone ``zone``; None otherwise, and for a map without data."""
+    over a week before or after the map's data (:data:`FAR_BEFORE_NS`, :data:`FAR_AFTER_NS`),
+    its days in the map's zone ``zone``; None otherwise, and for a map without data."""
     if start_ns is None or end_ns is None:
         return None
     start, end = int(start_ns), int(end_ns)
-    if start <= t_ns <= end + FAR_AFTER_NS:
+    if start - FAR_BEFORE_NS <= t_ns <= end + FAR_AFTER_NS:
         return None
     before = t_ns < start
     return (
@@ -312,8 +318,8 @@ def series_notes(
     with the hours no log observed named for the whole series rather than for one time
     (``noun``: what the times are, e.g. "departures"), and a kind of day the map never saw
     named where the series reaches one after that time (Friday to Monday from a map of
-    weekdays: its Saturday's note), and its first or last time where that lies before the
-    map's data or over a week after it and the time ``at`` does not. ``shown``: the zone the
+    weekdays: its Saturday's note), and its first or last time where that lies over a week
+    before or after the map's data and the time ``at`` does not. ``shown``: the zone the
     times are printed in (:func:`unseen_day`)."""
     when = times_ns[0] if at is None else int(at)
     notes = [

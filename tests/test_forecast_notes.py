@@ -67,18 +67,15 @@ def test_times_far_from_the_data_are_named() -> None:
         "this time is 4 weeks after the map's data (2023-11-14 to 2023-11-17): the forecast "
         "repeats the rhythm the map learnt and knows nothing of what changed since"
     )
-    (before,) = forecast_notes(timed, START - 5 * 3600 * 10**9)
-    assert before.startswith("this time is 5 hours before the map's data")
+    (before,) = forecast_notes(timed, START - 8 * DAY_NS - 5 * 3600 * 10**9)
+    assert before.startswith("this time is 8 days before the map's data")
     assert before.endswith("repeats the rhythm the map learnt")
-    (hour,) = forecast_notes(timed, START - 3600 * 10**9)
-    assert hour.startswith("this time is 1 hour before the map's data")
-    # under an hour: "0 hours before" said nothing of a time 20 minutes before the data
-    (minutes,) = forecast_notes(timed, START - 20 * 60 * 10**9)
-    assert minutes.startswith("this time is 20 minutes before the map's data")
-    (seconds,) = forecast_notes(timed, START - 40 * 10**9)
-    assert seconds.startswith("this time is 40 seconds before the map's data")
-    (instant,) = forecast_notes(timed, START - 1)
-    assert instant.startswith("this time is 1 second before the map's data")
+    # the week before the data is as near it as the week after: no note (52 seconds before
+    # the first detection, or the night before, had been said to lie before the data)
+    for ahead_ns in (1, 52 * 10**9, 5 * 3600 * 10**9, 6 * DAY_NS, 7 * DAY_NS):
+        assert forecast_notes(timed, START - ahead_ns) == []
+    (week,) = forecast_notes(timed, START - 7 * DAY_NS - 3600 * 10**9)
+    assert week.startswith("this time is 7 days before the map's data")
     years = forecast_notes(timed, END + 800 * DAY_NS)
     assert "2.2 years after" in years[0]
     # a static map has no rhythm to repeat: only where the time lies
@@ -91,8 +88,8 @@ def test_times_far_from_the_data_are_named() -> None:
     (local,) = forecast_notes(kolkata, END + 30 * DAY_NS)
     assert "(2023-11-15 to 2023-11-18)" in local
     one_day = Manifest({}, {"profile": "day"}, start_ns=START, end_ns=START + 3600 * 10**9)
-    assert forecast_notes(one_day, START - 3 * DAY_NS) == [
-        "this time is 3 days before the map's data (2023-11-14): the forecast repeats the "
+    assert forecast_notes(one_day, START - 10 * DAY_NS) == [
+        "this time is 10 days before the map's data (2023-11-14): the forecast repeats the "
         "rhythm the map learnt"
     ]
 
@@ -367,6 +364,7 @@ def test_a_series_that_runs_far_past_the_data_says_so() -> None:
     assert series_notes(timed, days[:7]) == []  # within the week after the data
     (own,) = series_notes(timed, days[-3:])  # the start is far after: its own note only
     assert own.startswith("this time is 4 weeks after")
-    (early,) = series_notes(timed, [START - 3 * DAY_NS + k * DAY_NS for k in range(5)],
+    (early,) = series_notes(timed, [START - 9 * DAY_NS + k * DAY_NS for k in range(11)],
                             at=START + DAY_NS, noun="departures")
-    assert early.startswith("the first of the departures is 3 days before the map's data")
+    assert early.startswith("the first of the departures is 9 days before the map's data")
+    assert series_notes(timed, [START - 3 * DAY_NS + k * DAY_NS for k in range(5)]) == []

@@ -56,7 +56,7 @@ by direction entropy, blue low to red high); a series becomes small multiples, o
 time (at most 24); a map whose floors lie apart in height gets one panel per floor. A time
 whose hour no log observed says "(extrapolated: an hour no log observed)" under its title, as
 the table of `aion predict` does; in a series, its panel's title ends with "(extrapolated)".
-A time before the map's data or over a week after it (the default, now, often is) says how far
+A time over a week before or after the map's data (the default, now, often is) says how far
 under its title ("47 weeks after the map's data (2026-01-05 to 2026-01-09)"); --historical
 names the days it shows.
 

@@ -56,8 +56,8 @@ extrapolated flows).
 dominant direction with length proportional to flow, coloured by direction entropy) with the
 temporal path (green) over the distance-only path (orange, dashed), each with its length and
 cost in the legend; a departure at an hour no log observed is titled as the table is, with
-"(extrapolated: an hour no log observed)", and one before the map's data or over a week after
-it (the default, now, often is) says how far, as aion export --format png does.
+"(extrapolated: an hour no log observed)", and one over a week before or after the map's
+data (the default, now, often is) says how far, as aion export --format png does.
 """
 
 

@@ -134,7 +134,7 @@ def _mark_unobserved(
 def _name_span(loaded: LoadedMap, times: Sequence[int | None], titles: list[str]) -> list[str]:
     """The title of one time naming what the picture shows beside the map's data: as
     observed, the days of the data (``as observed (historical), 2026-01-05 to 2026-01-09
-    UTC``); a forecast before them or over a week after them (``aion export`` without
+    UTC``); a forecast over a week before or after them (``aion export`` without
     ``--time`` draws now), how far, on a line of its own
     (:func:`~aion_cli.forecast_notes.far_from_data`). A series, or a map that does not record
     its span, keeps its titles."""

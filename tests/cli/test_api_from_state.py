@@ -56,13 +56,15 @@ def test_an_in_memory_map_notes_what_its_saved_copy_notes(tmp_path: Path) -> Non
         assert m.predict("2026-01-05 10:30").hour_observed is True
         night = m.predict("2026-01-05 03:00")
         assert night.hour_observed is False
-        assert len(night.notes) == 3
+        assert len(night.notes) == 2
         assert night.notes[0].startswith("every entry forecasts its static rate")
         assert "the map has 0 scored days" in night.notes[0]
-        # the span fed, 10:00 .. 10:59:50, recorded as a build records its logs'
-        assert night.notes[1] == "this time is 7 hours before the map's data (2026-01-05)"
-        assert night.notes[2].startswith("no log observed 03:00-04:00 (UTC) on any day")
-        assert "(the map observed 10:00-11:00)" in night.notes[2]
+        # the span fed, 10:00 .. 10:59:50, recorded as a build records its logs': 7 hours
+        # before it is within the week either side that says nothing
+        assert night.notes[1].startswith("no log observed 03:00-04:00 (UTC) on any day")
+        assert "(the map observed 10:00-11:00)" in night.notes[1]
+        (early,) = [n for n in m.predict("2025-12-25 03:00").notes if "map's data" in n]
+        assert early == "this time is 11 days before the map's data (2026-01-05)"
         series = m.predict_series("2026-01-05 09:00", "2026-01-05 11:00", "1h", top=1)
         assert series.hour_observed == (False, True, False)  # fed 10:00:00 .. 10:59:50
     assert mem.manifest.counts["used"] == saved.manifest.counts["used"] == 357

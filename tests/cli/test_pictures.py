@@ -321,7 +321,8 @@ def test_a_picture_names_what_it_shows_beside_the_map_s_days(
     """``aion export MAP --format png`` without ``--time`` draws the forecast now, and its
     title was today's date alone, with nothing to say the sample's data (Monday 2026-01-05 to
     Friday 2026-01-09, samples/README.md) lies months before; ``--historical``'s title did not
-    name those days either. Both name them now; a time within a week of the data does not."""
+    name those days either. Both name them now; a time within a week of the data (before or
+    after) does not."""
     days = "the map's data (2026-01-05 to 2026-01-09)"
 
     def texts(*args: str) -> str:
@@ -334,6 +335,8 @@ def test_a_picture_names_what_it_shows_beside_the_map_s_days(
     assert "7 weeks after" in texts("--time", "2026-02-27 08:40", "--tz", "UTC", "--format", "png")
     assert "as observed (historical), 2026-01-05 to 2026-01-09 UTC" in texts("--historical")
     assert "map's data" not in texts("--time", "2026-01-12 08:40", "--tz", "UTC")
+    # nor within a week before it, as after (3 days before had been named)
+    assert "map's data" not in texts("--time", "2026-01-02 08:40", "--tz", "UTC")
     plan = tmp_path / "plan.png"  # aion plan --png departs now as well
     (said,) = figure_texts(monkeypatch, "plan", sample_map, "--from", "p1", "--to", "p2",
                            "--png", plan)  # fmt: skip
