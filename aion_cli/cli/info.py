@@ -19,19 +19,20 @@ Examples:
   aion info run1.mcap run2.bag rosbag2_folder/      several logs, seen as one
   aion info office.aion                              a map: inputs, time span, counts, config
   aion info dsg.json                                 a scene graph: its layers, the places used
-  aion info run.mcap --format json | jq '.topics[] | select(.role == "detections")'
+  aion info run.mcap --format json | jq '.topics[] | select(.role == "detections" and .used)'
   aion info run.bag --suggest-mapping /people > people.toml   a mapping to edit
   aion info run.bag --detections-mapping people.toml         what build takes with it
   aion info run.mcap --verify                        read every chunk: damage and what it loses
 
 \b
-Roles: scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a supported people
-type, used by build), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
+Roles (by type): scene_graph (hydra_msgs/DsgUpdate, used by build), detections (a type aion
+reads people from), tf / tf_static (frames and the robot trajectory), unsupported (ignored).
 Generic types (PoseStamped, PoseArray, PoseWithCovarianceStamped, PointStamped, Marker,
-MarkerArray) are used only from topics whose name suggests people; `why` says why each topic
-is used or skipped. --suggest-mapping TOPIC prints a TOML mapping for --detections-mapping
-(not for TF, a scene graph or raw sensor data: the error lists the topics that look like
-detections).
+MarkerArray) are used only from topics whose name suggests people: a detections topic the
+build skips (leg_tracker's /visualization_marker_array) has used false; `used` says whether
+build takes each topic (will_use lists those taken), `why` why it is used or skipped.
+--suggest-mapping TOPIC prints a TOML mapping for --detections-mapping (not for TF, a scene
+graph or raw sensor data: the error lists the topics that look like detections).
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns,
 compression}], size_bytes, compression (each file's: its chunks' none / bz2 / lz4 / zstd, from
 the index or summary, and a rosbag2 bag's zstd (file) / zstd (message); [] unknown), start_ns,
@@ -42,7 +43,8 @@ recorded: each log's span, one rosbag2 bag's files joined, overlaps once), recor
 messages), messages,
 topics[{topic, type, count, role, encoding, rate_hz, used, why, readable}] (every topic, also
 channels in encodings that are not ROS, such as JSON or protobuf: readable false, type their
-schema's name, encoding the channel's; messages counts the readable ones), roles, dsg_versions,
+schema's name, encoding the channel's; messages counts the readable ones),
+roles{role: [topics of its types, used or not]}, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
 fixed_sensor{windows_with_messages, span_windows, recorded_windows (the windows with messages,
 each a log starts or ends inside counted for the part recorded, as build counts them),
