@@ -423,6 +423,48 @@ def test_a_test_log_of_another_place_is_warned_of(corridor: tuple, tmp_path: Pat
     assert run_json("evaluate", "holdout", site, test, "--format", "json")["warnings"] == []
 
 
+def test_a_test_log_mostly_of_another_place_is_warned_of(corridor: tuple, tmp_path: Path) -> None:
+    """Two tracks in three of the test day walked 100 m east of the corridor: most of its
+    detections (a THÖR or ETH log against the office map: 62-83 %) scored as uniform headings
+    with no word, since a warning came only when none matched. The share is now named; a third
+    moved is below the threshold (more than half) and says nothing."""
+    site, _train, _test, _truth = corridor
+    write_days(tmp_path / "near.csv", 6, 1)
+    rows = (tmp_path / "near.csv").read_text().splitlines()
+
+    def moved_log(name: str, moved_tracks: set[int]) -> tuple[Path, int]:
+        kept, moved = [rows[0]], 0
+        tracks = sorted({int(line.split(",")[1]) for line in rows[1:]})
+        chosen = {tracks[i] for i in range(len(tracks)) if i % 3 in moved_tracks}
+        for line in rows[1:]:
+            t, track, x, *rest = line.split(",")
+            shift = 100.0 if int(track) in chosen else 0.0
+            moved += int(int(track) in chosen)
+            kept.append(",".join([t, track, f"{float(x) + shift:.2f}", *rest]))
+        (tmp_path / f"{name}.csv").write_text("\n".join(kept) + "\n")
+        return convert(tmp_path / f"{name}.csv", 6, 1), moved
+
+    most, moved = moved_log("most", {1, 2})
+    doc = run_json("evaluate", "holdout", site, most, "--format", "json")
+    aion = {h["model"]: h for h in doc["headings"]}["aion"]
+    n, apart = aion["detections"], aion["detections"] - aion["matched"]
+    assert apart >= moved > n / 2  # the moved rows, and any the corridor's own leaves apart
+    (said,) = [w for w in doc["warnings"] if "lie farther than" in w]
+    assert said == (
+        f"{apart / n:.0%} of the {n:,} test detections ({apart:,}) lie farther than 1 m "
+        "(--radius) from every map entry: are the test logs (mostly) of another place or frame "
+        "than the map? Each of those scores as a uniform heading"
+    )
+    shown = run("evaluate", "holdout", site, most, "-q")
+    assert shown.exit_code == 0, shown.stderr
+    assert f"warning: {apart / n:.0%} of the {n:,} test detections" in shown.stderr
+    third, moved = moved_log("third", {1})
+    doc = run_json("evaluate", "holdout", site, third, "--format", "json")
+    aion = {h["model"]: h for h in doc["headings"]}["aion"]
+    assert 0 < aion["detections"] - aion["matched"] <= aion["detections"] / 2
+    assert doc["warnings"] == []
+
+
 def test_an_observed_span_after_the_test_logs_is_observed(corridor: tuple) -> None:
     """--observed declares an hour the day after the test day: its 6 ten-minute windows are
     test windows observed empty, as aion build observes them (and as a log converted with
