@@ -85,3 +85,26 @@ def test_other_dtypes_and_shapes_go_to_numpy() -> None:
     assert np.array_equal(row_sums(single), single.sum(axis=1))
     empty = np.zeros((0, 8))
     assert row_sums(empty).shape == (0,)
+
+
+@pytest.mark.parametrize("width", [2, 3, 8, 9, 31, 128])
+@pytest.mark.parametrize("block_bytes", [8, 8 * 40 * 8 + 8, 1 << 19])
+def test_tall_arrays_summed_in_blocks_of_rows(
+    width: int, block_bytes: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Arrays taller than a block of rows (one row a block, blocks that do not divide the
+    rows, the default 512 KiB) sum as numpy does, every row including the last partial
+    block's; views of every other row and of reversed columns too."""
+    import aion_cli.engine.row_sums as module
+
+    monkeypatch.setattr(module, "_BLOCK_BYTES", block_bytes)
+    rng = np.random.default_rng(width)
+    rows = 3 * (1 << 19) // (8 * width) + 7  # three default blocks and a part
+    a = rng.standard_normal((rows, width)) * 10.0 ** rng.uniform(-8, 8, (rows, width))
+    if block_bytes == 8:
+        a = a[:301]  # a block per row: keep it short
+    for view in (a, a[:, ::-1], a[::2]):
+        assert row_sums(view).tobytes() == view.sum(axis=1).tobytes()
+        kept = row_sums(view, keepdims=True)
+        assert kept.tobytes() == view.sum(axis=1, keepdims=True).tobytes()
+        assert kept.shape == (view.shape[0], 1)
