@@ -14,12 +14,7 @@ def test_unix_observed_spans_are_not_said_to_be_read_in_utc(tmp_path: Path) -> N
     (give --tz)", though a UNIX time is the same instant in every zone."""
     csv = real("atc", "atc-1024-9_test.csv")
     spans = {"unix": "1351036800..1351040400", "clock": "2012-10-24 00:00..2012-10-24 01:00"}
-    said = {}
-    for kind, span in spans.items():
-        out = run("convert", csv, "--layout", "atc", "-o", tmp_path / f"{kind}.mcap",
-                  "--observed", span)  # fmt: skip
-        assert out.exit_code == 0, out.stderr
-        said[kind] = " ".join(out.output.split())
+    said = _notes(tmp_path, csv, "atc", "--observed", spans)
     for text in said.values():  # both still name the dataset's zone and the build for it
         assert "atc: the dataset was recorded in Osaka (Asia/Tokyo):" in text
     assert "--observed was read in UTC" not in said["unix"]
@@ -39,12 +34,7 @@ def test_a_start_that_names_an_instant_is_not_said_to_be_read_in_utc(tmp_path: P
         "zone": "2026-01-05 13:00 Europe/Stockholm",
         "clock": "2026-01-05 12:00",
     }
-    said = {}
-    for kind, start in starts.items():
-        out = run("convert", csv, "--layout", "thor", "-o", tmp_path / f"{kind}.mcap",
-                  "--start", start)  # fmt: skip
-        assert out.exit_code == 0, out.stderr
-        said[kind] = " ".join(out.output.split())
+    said = _notes(tmp_path, csv, "thor", "--start", starts)
     for kind, text in said.items():
         assert "thor: the dataset was recorded in Örebro (Europe/Stockholm):" in text, kind
         assert ("--start was read in UTC (give --tz)" in text) == (kind == "clock"), text
@@ -53,3 +43,15 @@ def test_a_start_that_names_an_instant_is_not_said_to_be_read_in_utc(tmp_path: P
               "--observed", "1351036800..2012-10-24 01:00")  # fmt: skip
     assert out.exit_code == 0, out.stderr
     assert "--observed was read in UTC (give --tz)" in " ".join(out.output.split())
+
+
+def _notes(
+    tmp_path: Path, csv: Path, layout: str, flag: str, values: dict[str, str]
+) -> dict[str, str]:
+    """What ``aion convert`` says (whitespace joined) for each of ``values`` given to ``flag``."""
+    said = {}
+    for kind, value in values.items():
+        out = run("convert", csv, "--layout", layout, "-o", tmp_path / f"{kind}.mcap", flag, value)
+        assert out.exit_code == 0, out.stderr
+        said[kind] = " ".join(out.output.split())
+    return said

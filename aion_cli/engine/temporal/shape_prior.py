@@ -158,22 +158,35 @@ def group_shapes(
     r_map = (shrunk_rate(s_map, w_map, flat, c) if np.isfinite(c) else flat) / rho_map
     if bins_per_day is not None:
         r_map = _unseen_kinds(r_map, s_map, w_map, rho_map, c, bins_per_day)
-    w_tot = w_g.sum(axis=1)
-    rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
+    rho_g = _levels(s_g, w_g)
     prior = rho_g[:, None] * r_map[None, :]
     busy = rho_g > 0
     c = prior_strength(s_g[busy], w_g[busy], prior[busy], phi)
     if bins_per_day is not None:  # a group's unseen bins: its own hours of the kinds seen
         unseen = unseen_bins(w_map, bins_per_day)
         s_g, w_g = by_hour(s_g, unseen, bins_per_day), by_hour(w_g, unseen, bins_per_day)
+    return _group_shapes_of(s_g, w_g, prior, c, rho_g, r_map), r_map
+
+
+def _levels(s_g: F64, w_g: F64) -> F64:
+    """Each group's level ρ_g: its detections over its windows (0 where it has none)."""
+    w_tot = w_g.sum(axis=1)
+    out: F64 = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
+    return out
+
+
+def _group_shapes_of(s_g: F64, w_g: F64, prior: F64, c: float, rho_g: F64, r_map: F64) -> F64:
+    """The groups' shapes: each busy group's rates shrunk toward ``prior`` with strength
+    ``c`` (the prior itself where c is infinite), over its level ρ_g; a group without
+    detections takes the map's shape ``r_map``."""
     r_g = np.divide(
         shrunk_rate(s_g, w_g, prior, c) if np.isfinite(c) else prior,
         rho_g[:, None],
         out=np.zeros_like(s_g),
         where=rho_g[:, None] > 0,
     )
-    out: F64 = np.where(busy[:, None], r_g, r_map[None, :])
-    return out, r_map
+    out: F64 = np.where((rho_g > 0)[:, None], r_g, r_map[None, :])
+    return out
 
 
 def _week_shapes(s_g: F64, w_g: F64, phi: float, bins_per_day: int) -> tuple[F64, F64]:
@@ -193,19 +206,11 @@ def _week_shapes(s_g: F64, w_g: F64, phi: float, bins_per_day: int) -> tuple[F64
     prior_map = rho_map * pooled_map[kind]
     c = prior_strength(s_map, w_map, prior_map, phi)
     r_map = (shrunk_rate(s_map, w_map, prior_map, c) if np.isfinite(c) else prior_map) / rho_map
-    w_tot = w_g.sum(axis=1)
-    rho_g = np.divide(s_g.sum(axis=1), w_tot, out=np.zeros(len(w_tot)), where=w_tot > 0)
+    rho_g = _levels(s_g, w_g)
     prior = rho_g[:, None] * pooled_g[:, kind]
     busy = rho_g > 0
     c = prior_strength(s_g[busy], w_g[busy], prior[busy], phi)
-    r_g = np.divide(
-        shrunk_rate(s_g, w_g, prior, c) if np.isfinite(c) else prior,
-        rho_g[:, None],
-        out=np.zeros_like(s_g),
-        where=rho_g[:, None] > 0,
-    )
-    out: F64 = np.where(busy[:, None], r_g, r_map[None, :])
-    return out, r_map
+    return _group_shapes_of(s_g, w_g, prior, c, rho_g, r_map), r_map
 
 
 def pooled_week_bins(h: npt.ArrayLike, bins_per_day: int) -> I64:
