@@ -207,11 +207,12 @@ _LINCOLN_SPECS: dict[str, _Spec] = {
         None,
         ignored_columns=frozenset({3, 4, 5}),
     ),
-    # 2017-05-31_heading.csv: `t, id, x, y, z, heading_rad` (id always 0)
+    # 2017-05-31_heading.csv: `t, id, x, y, z, heading_rad` (id always 0); z finite as x and
+    # y (a NaN z was read as the detection's height, which aion build then dropped)
     "heading": _Spec(
         ("time_s", "id", "x_m", "y_m", "z_m", "heading_rad"),
         frozenset(),
-        frozenset({0, 2, 3}),
+        frozenset({0, 2, 3, 4}),
         ",",
         None,
         ignored_columns=frozenset({1}),
