@@ -8,7 +8,7 @@ import csv
 import re
 import warnings
 from pathlib import Path
-from typing import Literal
+from typing import BinaryIO, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -107,7 +107,27 @@ _MAGNI_HINT = "every row needs the header's columns, comma-separated"
 
 
 def _fields(line: str) -> list[str]:
+    """The comma-separated fields of one line (no line break in it: :func:`_lines`)."""
     return next(csv.reader([line]), [])
+
+
+def _lines(block: bytes) -> list[bytes]:
+    """The lines of ``block`` (bytes up to a ``\\n``, as a binary file iterates) with their
+    ends, split at ``\\r\\n``, ``\\r`` and ``\\n`` as np.loadtxt's universal newlines read the
+    file: a lone ``\\r`` inside a line ends it (the csv module refused such a line with an
+    untyped ``_csv.Error``)."""
+    return block.splitlines(keepends=True)
+
+
+def _count_lines(fh: BinaryIO) -> int:
+    """How many line ends the rest of ``fh`` has, counted as :func:`_lines` splits them, block
+    by block (a ``\\r\\n`` across two blocks is one)."""
+    n, previous = 0, b""
+    for block in iter(lambda: fh.read(1 << 20), b""):
+        n += block.count(b"\n") + block.count(b"\r") - block.count(b"\r\n")
+        n -= previous.endswith(b"\r") and block.startswith(b"\n")
+        previous = block
+    return n
 
 
 def _magni_problem(path: Path, need: int, detail: str) -> TracksFormatError:
@@ -117,7 +137,7 @@ def _magni_problem(path: Path, need: int, detail: str) -> TracksFormatError:
     message before."""
     columns = need
     with path.open("rb") as fh:
-        for lineno, raw in enumerate(fh, start=1):
+        for lineno, raw in enumerate((line for block in fh for line in _lines(block)), start=1):
             try:
                 line = raw.decode("utf-8-sig" if lineno == 1 else "utf-8")
             except UnicodeDecodeError:
@@ -153,18 +173,19 @@ def _check_last_line(path: Path) -> None:
     short inside it (its ``ag_id`` cut from ``Helmet_1`` to ``Hel`` was skipped as "not
     people", to ``Helmet_`` renumbered every agent), as the other layouts refuse a cut line."""
     with path.open("rb") as fh:
-        header = fh.readline().decode("utf-8-sig", errors="replace")
+        header = fh.readline()
         size = fh.seek(0, 2)
         fh.seek(max(0, size - TAIL_BYTES))
         tail = fh.read()
     if not tail or tail.endswith((b"\n", b"\r")):
         return
-    last = tail.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace").strip()
-    need, got = len(_fields(header.strip())), len(_fields(last))
+    last = _lines(tail)[-1].decode("utf-8", errors="replace").strip()
+    first = _lines(header)[0].decode("utf-8-sig", errors="replace")
+    need, got = len(_fields(first.strip())), len(_fields(last))
     if got >= need or not last:
         return
     with path.open("rb") as fh:
-        lineno = sum(block.count(b"\n") for block in iter(lambda: fh.read(1 << 20), b"")) + 1
+        lineno = _count_lines(fh) + 1
     raise _short_line(path, lineno, need, got, cut=True)
 
 
