@@ -273,8 +273,9 @@ def _lincoln_header(path: Path) -> tuple[int, int]:
                     f"second larger), got {text[:80]!r}"
                 )
             pairs.append((lo, hi))
-    (t0, t1) = pairs[0]
-    return round(t0 * 1e6) * 1000, round(t1 * 1e6) * 1000
+    # in int64 ns as the rows' times (a start of -1e19 s overflowed the notes' comparison)
+    t0, t1 = _seconds_to_ns(np.array(pairs[0]), path=path).tolist()
+    return t0, t1
 
 
 def read_lincoln(path: str | Path, linker: LinkerConfig | None = None) -> TrackData:

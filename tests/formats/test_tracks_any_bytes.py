@@ -10,7 +10,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from hypothesis import example, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.errors import AionError
@@ -93,7 +93,7 @@ def _stream(path: Path, layout: str) -> None:
 MAGNI = b"Time,frame_id,x,y,z,ag_id,data_label\n0.01,1,100,200,0,Helmet_3,x\n"
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(content=damaged())
 # a lone carriage return inside a THÖR-MAGNI line (np.loadtxt's universal newlines end the line
 # there), in a line, the header, the cut last line: the csv module's "new-line character seen
@@ -103,6 +103,8 @@ MAGNI = b"Time,frame_id,x,y,z,ag_id,data_label\n0.01,1,100,200,0,Helmet_3,x\n"
 @example(content=MAGNI + b"0.02\r,2,110")
 # the Lincoln CSV's z column not finite: taken as the detection's height (NaN) silently
 @example(content=b"1496223468.9,0,13.8,1.5,nan,0.37\n1496223474.4,0,13.4,1.4,0,0.26\n")
+# a Lincoln header's start beyond int64 nanoseconds: an OverflowError comparing it with the rows'
+@example(content=b"-9223372036854775809 1497225600\n-8 12\n-3 17\n1496999627.5 1.0 2.0\n")
 def test_every_layouts_reader_gives_tracks_or_a_typed_error(content: bytes) -> None:
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "tracks.txt"
