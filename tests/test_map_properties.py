@@ -92,13 +92,18 @@ def test_a_log_cut_after_any_message_and_continued_equals_one_build(
 @settings(max_examples=25, deadline=None, suppress_health_check=SLOW)
 @given(
     specs=st.lists(LOG, min_size=1, max_size=3),
-    times=st.lists(st.integers(-10 * DAY, 30 * DAY), min_size=1, max_size=4),
+    times=st.lists(
+        st.integers(-10 * DAY, 30 * DAY).map(lambda offset: MORNING + offset)
+        | st.integers(-(2**63), 2**63 - 1),
+        min_size=1,
+        max_size=4,
+    ),
 )
 def test_a_prediction_at_any_time_is_finite_non_negative_and_its_histograms_sum_to_one(
     specs: list[tuple[bool, int, int, int]], times: list[int]
 ) -> None:
     """Logs days apart (so the map scored whole days and chose families), predicted from ten
-    days before the first to a month after it."""
+    days before the first to a month after it, and at any int64 nanosecond time."""
     steps: list[Step] = []
     for k, (robot, windows, days, seed) in enumerate(specs):
         start = MORNING + 4 * k * DAY
@@ -107,8 +112,7 @@ def test_a_prediction_at_any_time_is_finite_non_negative_and_its_histograms_sum_
     state = run_steps(steps).state
     rows, predictor = state.predictor()
     assert len(rows) > 0
-    for offset in times:
-        t_ns = MORNING + offset
+    for t_ns in times:
         pred = predictor.at(t_ns)
         for values in (pred.flow, pred.variance):
             assert np.isfinite(values).all()
