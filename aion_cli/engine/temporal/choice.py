@@ -218,7 +218,9 @@ def choose_families(
         lendable = np.zeros_like(dir_on)
         lendable[[dstatic, params.direction.index("profile")]] = True
         pooled = _pooled_days(dir_score, dir_consistency, groups, n_groups)
-        at_map = [part.sum(axis=0, keepdims=True) for part in pooled]
+        # the map pooled as one group (not the groups' pooled sums: those leave out the days
+        # of groups without a member of two scored days, whose gains their scores still hold)
+        at_map = _pooled_days(dir_score, dir_consistency, np.zeros(e, np.int64), 1)
         map_dir = _choose(at_map[0], np.array([dstatic]), lendable, margin,
                           None if dc is None else (at_map[1], at_map[2], dstatic))  # fmt: skip
         group_dir = _choose(pooled[0], np.full(n_groups, map_dir[0]), lendable, margin,
