@@ -305,8 +305,8 @@ def holdout(
                         # as typed: a span apart from the test logs is warned of, as by build
                         observed_typed=tuple(zip(observed, spans, strict=True)))
     result = run_holdout(map_path, opts, radius, progress=note)
-    for said in observed_notes(observed, spans, None, map_path):  # read across a clock change
-        note(said)
+    # spans read across a clock change: noted first, in the JSON's notes too (as build's)
+    result.notes[:0] = observed_notes(observed, spans, None, map_path)
     for line in (*result.notes, spread_note(result.spread)):
         if line is not None:
             note(line)

@@ -177,6 +177,10 @@ def test_an_observed_start_a_clock_change_skips_says_the_instant_taken(tmp_path:
     held = run("evaluate", "holdout", tmp_path / "t.aion", log, "--observed", span)
     assert held.exit_code == 0, held.stderr
     assert said in held.stderr
+    # and in the JSON's notes, as build's (the note went to stderr only)
+    doc = run_json("evaluate", "holdout", tmp_path / "t.aion", log, "--observed", span,
+                   "--format", "json")
+    assert [n for n in doc["notes"] if n.startswith(said)]
     plain = run("build", log, "-o", tmp_path / "p.aion", "--observed",
                 "2026-03-29 04:00..2026-03-29 05:00")
     assert plain.exit_code == 0, plain.stderr
