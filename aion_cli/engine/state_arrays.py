@@ -29,6 +29,7 @@ from aion_cli.engine.state_checks import (
     parse_state_meta,
 )
 from aion_cli.engine.temporal import components as fremen_components
+from aion_cli.engine.temporal import week_evidence
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.held_days import DeferredDays
 from aion_cli.engine.temporal.params import TemporalParams
@@ -134,6 +135,7 @@ def map_state_from_arrays(
         copy=copy,
         fourier=components is None,
     )
+    week_evidence.check_width(temporal.week_sums, params.calendar.bins_per_day, "temporal_")
     if writable:
         temporal.resize(entries.capacity)
     pending = PendingDay.from_arrays(arrays, "pending_", head.pending_day, params.values, entries.n)

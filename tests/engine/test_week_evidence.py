@@ -183,3 +183,23 @@ def test_corrupt_sums_are_refused(value: np.ndarray, message: str) -> None:
     gain_only[3] = -1.0  # a loss of the week is a sum like any other
     np.testing.assert_array_equal(stored_sums({"t_week_sums": gain_only}, "t_", 48), gain_only)
     assert stored_sums({}, "t_", 48).shape == (4, 0)
+
+
+def test_sums_of_another_calendars_width_are_refused_on_reading_the_map() -> None:
+    """A day-and-weekend profile of hourly bins keeps 168 hours of the week; 336 columns (the
+    week of a half-hour profile) pass the member's own check, which knows the profile's bins
+    but not its kinds of day, and the map read, then failed in its next day close (numpy's
+    broadcast error) or merge. Refused where the map is read, as other members whose shape
+    does not match the config."""
+    from aion_cli.engine.state import MapState
+    from aion_cli.errors import MapCorruptError
+    from tests.engine.temporal_data import corridor
+
+    state = corridor(3, lambda d, h: 5.0, seed=1).state
+    arrays, meta = state.to_arrays()
+    assert arrays["temporal_week_sums"].shape == (4, 168)
+    MapState.from_arrays(dict(arrays), meta)  # as written: read
+    wide = np.zeros((4, 336))
+    wide[:3] = 1.0
+    with pytest.raises(MapCorruptError, match="week_sums"):
+        MapState.from_arrays({**arrays, "temporal_week_sums": wide}, meta)

@@ -172,3 +172,14 @@ def stored_sums(arrays: Mapping[str, np.ndarray], prefix: str, n_profile: int) -
         raise MapCorruptError(f"{prefix}{MEMBER} holds non-finite or negative sums")
     out: F64 = value.astype(np.float64)
     return out
+
+
+def check_width(sums: F64, bins_per_day: int, prefix: str) -> None:
+    """:class:`MapCorruptError` when stored sums (:func:`stored_sums`, which knows the
+    profile's bins but not its kinds of day) are not 7 × the config's ``bins_per_day`` wide:
+    a day close or merge would add sums of other hours to them (numpy's broadcast error)."""
+    if sums.size and sums.shape[1] != 7 * bins_per_day:
+        raise MapCorruptError(
+            f"{prefix}{MEMBER} must be of shape (4, {7 * bins_per_day}) for the map's "
+            f"profile, got {sums.shape}"
+        )
