@@ -115,3 +115,26 @@ def test_every_hours_prior_at_once_is_the_pairs_prior() -> None:
     pairs = hour_prior(np.repeat(static, H, 0), shift, np.repeat(groups, H),
                        np.tile(np.arange(H), 7))  # fmt: skip
     assert np.array_equal(hourly_priors(static, shift, groups), pairs)
+
+
+def test_a_kind_of_day_never_observed_adds_no_detections_to_a_group() -> None:
+    """A map of weekdays only (the weekend's 24 bins never observed): its groups' weekend
+    hours take the weekday's counts for their shift (``by_hour``), as an entry's profile
+    does, but those are the weekday's detections again, not more: which groups hold κ_G
+    directed detections (``telling``, whose shift lets a sparse member score its
+    time-varying families) counts each detection once, as a map of the weekday bins alone
+    would (it counted them twice)."""
+    rng = np.random.default_rng(7)
+    weekdays = _hourly(True, 12, 40, rng)
+    weekdays[6:] = 0.0
+    weekdays[6:, 0, 9] = 2.0  # six groups of two detections, fewer than κ_G (about 2.4)
+    hourly = np.concatenate([weekdays, np.zeros_like(weekdays)], axis=2)  # [G, B, 2H]
+    unseen = np.arange(2 * H) >= H
+    shift = GroupShift.of(hourly, _histogram(weekdays), unseen, H)
+    alone = GroupShift.of(weekdays, _histogram(weekdays), None, H)
+    assert shift is not None
+    assert alone is not None
+    np.testing.assert_array_equal(shift.ratio[:, H:], shift.ratio[:, :H])  # the weekday's
+    assert 2.0 < shift.kappa < 4.0
+    assert shift.telling.tolist() == [True] * 6 + [False] * 6
+    assert np.array_equal(shift.telling, alone.telling)

@@ -77,7 +77,8 @@ class GroupShift:
         total = row_sums(rows, keepdims=True)
         shrunk = (rows + kappa * parent) / (total + kappa)
         ratio = np.divide(shrunk, parent, out=np.ones_like(shrunk), where=parent > 0)
-        return cls(ratio.reshape(g, h, b), kappa, counts.sum(axis=(1, 2)) >= kappa)
+        # the groups' own detections: not ``counts``, whose unseen bins repeat the seen ones
+        return cls(ratio.reshape(g, h, b), kappa, hourly.sum(axis=(1, 2)) >= kappa)
 
 
 _CHUNK = 256
