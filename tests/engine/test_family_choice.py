@@ -34,6 +34,32 @@ def test_student_t_sf_known_quantiles_and_mixed_degrees() -> None:
         student_t_sf(1.0, 0)
 
 
+@pytest.mark.parametrize("big", [257, 1_000, 200_001, 200_000])
+def test_student_t_sf_of_pooled_draws_matches_scipy_without_a_term_per_degree(
+    big: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A group's or the map's pooled test has as many degrees of freedom as (member, day)
+    draws, 10^5 on a big map: mixed with entries' few days in one call, every tail still equals
+    scipy's, and the closed form's series (a vector step per two degrees) never runs to it."""
+    from scipy import stats
+
+    from aion_cli.engine.temporal import choice
+
+    ran: list[int] = []
+    series = choice._series_sf
+
+    def counted(tt: F64, nu: np.ndarray) -> F64:
+        ran.append(int(nu.max()))
+        return series(tt, nu)
+
+    monkeypatch.setattr(choice, "_series_sf", counted)
+    t = np.array([-3.0, 0.0, 0.5, 1.645, 2.0, 4.0, 2.0, 1.0])
+    df = np.array([big, big, big, big, 3, 4, 256, big])
+    np.testing.assert_allclose(student_t_sf(t, df), stats.t.sf(t, df), rtol=1e-9, atol=1e-15)
+    assert ran == [256]
+    assert student_t_sf(0.0, big) == pytest.approx(0.5)
+
+
 def test_benjamini_hochberg_by_hand() -> None:
     """m = 5 at rate 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05. p_(3) = 0.025 <= 0.03 is
     the largest that passes, so the three smallest are rejected — 0.015 among them although it

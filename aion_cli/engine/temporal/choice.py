@@ -68,18 +68,41 @@ _FDR = 0.05
 """The false-discovery rate at which entries may choose a time-varying family over ``static``."""
 
 
+_SERIES_MAX_DF = 256
+"""Up to this many degrees of freedom :func:`student_t_sf` sums the closed form's df / 2 terms;
+beyond it (a group's or the map's pooled (member, day) draws reach 10^5) the regularised
+incomplete beta function of ``scipy.special``, whose cost does not grow with df."""
+
+
 def student_t_sf(t: npt.ArrayLike, df: npt.ArrayLike) -> F64:
-    """P(T > t) for Student's t with integer ``df`` >= 1 degrees of freedom, exact.
+    """P(T > t) for Student's t with integer ``df`` >= 1 degrees of freedom.
 
     The closed form of Abramowitz & Stegun 26.7.3–4: with θ = atan(t / √df), P(|T| < t) is
     sin θ · Σ_j c_j cos^{2j} θ (even df) or (2/π)(θ + sin θ · Σ_j c_j cos^{2j+1} θ) (odd df),
-    finite sums of df / 2 terms. Pure numpy (no ``scipy.special`` import on the query path);
-    one vector step per term, so the cost is O(max df) over the array."""
+    finite sums of df / 2 terms, one vector step per term over the array (no ``scipy.special``
+    import on the usual query path). Degrees of freedom above ``_SERIES_MAX_DF`` take
+    ``scipy.special.stdtr`` instead: the series' cost is O(max df) over the whole array, and a
+    pooled test of 2·10^5 draws cost 0.3 s alone, seconds beside a thousand entries' tests."""
     tt = np.asarray(t, dtype=np.float64)
     nu = np.asarray(df, dtype=np.int64)
     tt, nu = np.broadcast_arrays(tt, nu)
     if np.any(nu < 1):
         raise ValueError("degrees of freedom must be >= 1")
+    big = nu > _SERIES_MAX_DF
+    if not big.any():
+        return _series_sf(tt, nu)
+    from scipy.special import stdtr
+
+    out: F64 = np.empty(tt.shape, dtype=np.float64)
+    out[big] = np.clip(stdtr(nu[big].astype(np.float64), -tt[big]), 0.0, 1.0)
+    small = ~big
+    if small.any():
+        out[small] = _series_sf(tt[small], nu[small])
+    return out
+
+
+def _series_sf(tt: F64, nu: I64) -> F64:
+    """:func:`student_t_sf` by the closed form's finite sums (every ``nu`` >= 1)."""
     theta = np.arctan(tt / np.sqrt(nu))
     sin, cos2 = np.sin(theta), np.cos(theta) ** 2
     odd = nu % 2 == 1
