@@ -80,16 +80,18 @@ def overlap_groups(spans: dict[int, tuple[int, int]]) -> dict[int, int]:
     group, a span that overlaps none a group of its own. Sorted by start, a span starts a
     group when it starts at or after the latest end before it (a span overlaps an earlier
     one when it starts before that end, and a later one when the next start comes before
-    its end)."""
-    if not spans:
-        return {}
-    keys = np.array(list(spans), np.int64)
-    lo, hi = np.array(list(spans.values()), np.int64).reshape(-1, 2).T
-    order = np.lexsort((hi, lo))
-    keys, lo, hi = keys[order], lo[order], hi[order]
-    reach = np.maximum.accumulate(hi)
-    starts = np.concatenate([[True], lo[1:] >= reach[:-1]])
-    return dict(zip(keys.tolist(), (np.cumsum(starts) - 1).tolist(), strict=True))
+    its end). Python integers, one step per recording: log times are MCAP's uint64, and one
+    past 2^63 (a damaged or far-future time, which the build drops and names) must not
+    overflow here first."""
+    groups: dict[int, int] = {}
+    group = -1
+    reach: int | None = None  # the latest end so far
+    for key, (lo, hi) in sorted(spans.items(), key=lambda item: item[1]):
+        if reach is None or lo >= reach:
+            group += 1
+        reach = hi if reach is None else max(reach, hi)
+        groups[key] = group
+    return groups
 
 
 @dataclass
