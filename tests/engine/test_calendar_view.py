@@ -14,8 +14,7 @@ import pytest
 
 from aion_cli import api
 from aion_cli.cli.info_map import calendar_text
-from aion_cli.engine.temporal.calendar_view import pooled_bins
-from aion_cli.engine.temporal.shape_prior import group_shapes, pool_week
+from aion_cli.engine.temporal.shape_prior import group_shapes, pool_week, pooled_week_bins
 from benchmarks.forecast_scenarios import SCENARIOS, market_rates
 from tests.cli.conftest import run_json
 from tests.engine.test_week_evidence import TRAIN_DAYS, _build, _logs
@@ -109,9 +108,9 @@ def test_a_week_map_without_the_evidence_forecasts_as_weekdays_and_weekends(
 def test_pooled_bins_are_the_weekday_and_weekend_hours() -> None:
     """Monday 00 h is weekday hour 0, Friday 23 h weekday 23, Saturday 00 h weekend 0
     (bin 24), Sunday 23 h weekend 23 (bin 47); with half-hour bins the same by 48."""
-    np.testing.assert_array_equal(pooled_bins(np.array([0, 4 * 24 + 23, 5 * 24, 167]), 24),
+    np.testing.assert_array_equal(pooled_week_bins(np.array([0, 4 * 24 + 23, 5 * 24, 167]), 24),
                                   [0, 23, 24, 47])
-    np.testing.assert_array_equal(pooled_bins(np.array([48 * 2 + 5, 48 * 6 + 1]), 48),
+    np.testing.assert_array_equal(pooled_week_bins(np.array([48 * 2 + 5, 48 * 6 + 1]), 48),
                                   [5, 48 + 1])
 
 

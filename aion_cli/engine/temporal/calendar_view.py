@@ -34,9 +34,9 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.observation_block import ObsBlock
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.shape_prior import pool_week, pooled_week_bins
+from aion_cli.engine.temporal.shape_prior import pool_week
 from aion_cli.engine.temporal.week_evidence import calendar_choice
-from aion_cli.engine.types import F64, I64
+from aion_cli.engine.types import F64
 
 
 def forecast_calendar(params: TemporalParams, state: TemporalState) -> str:
@@ -68,11 +68,6 @@ def pooled_view(
         day_level=_pooled_level(state.day_level, per_day),
     )
     return _day_weekend(params.config), view
-
-
-def pooled_bins(h: I64, bins_per_day: int) -> I64:
-    """The weekday/weekend bin of hour-of-the-week bins ``h`` (Monday 00:00 first)."""
-    return pooled_week_bins(h, bins_per_day)
 
 
 @lru_cache(maxsize=8)

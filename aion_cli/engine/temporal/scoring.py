@@ -38,12 +38,13 @@ from aion_cli.engine.grouping import cut_by_key
 from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.absorption import absorb_day, slot_times, slot_utc_seconds
 from aion_cli.engine.temporal.accumulators import TemporalState
-from aion_cli.engine.temporal.calendar_view import pooled_bins, pooled_view
+from aion_cli.engine.temporal.calendar_view import pooled_view
 from aion_cli.engine.temporal.direction_scoring import direction_day_scores
 from aion_cli.engine.temporal.forecast import Forecaster
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
+from aion_cli.engine.temporal.shape_prior import pooled_week_bins
 from aion_cli.engine.temporal.slot_sums import FixedSlots, sum_in_order
 from aion_cli.engine.types import F64, I64
 
@@ -108,7 +109,7 @@ def _score(
     written = state
     params, state = pooled_view(params, state)
     if state is not written:
-        h = pooled_bins(h, params.calendar.bins_per_day)
+        h = pooled_week_bins(h, params.calendar.bins_per_day)
     if day.fixed.any():
         candidates = live_rows
     else:
