@@ -331,6 +331,6 @@ def calendar_text(calendar: dict[str, Any], profile: str) -> str:
                 f"better day ahead than those of weekdays and weekends; {using}{hint}")
     if days < MIN_DAYS:
         return (f"weekdays and weekends: too few days to judge the week's hours (each "
-                f"weekday needs {MIN_DAYS}, the fewest seen {days}); {using}")
+                f"day of the week observed needs {MIN_DAYS}, the fewest seen {days}); {using}")
     return (f"weekdays and weekends: the hours of the week forecast the closed days no "
             f"better day ahead ({gain:+,.1f} nats); {using}")

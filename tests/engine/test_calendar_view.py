@@ -15,6 +15,7 @@ import pytest
 from aion_cli import api
 from aion_cli.cli.info_map import calendar_text
 from aion_cli.engine.temporal.shape_prior import group_shapes, pool_week, pooled_week_bins
+from aion_cli.formats.mapfile import read_map
 from benchmarks.forecast_scenarios import SCENARIOS, market_rates
 from tests.cli.conftest import run_json
 from tests.engine.test_week_evidence import TRAIN_DAYS, _build, _logs
@@ -134,3 +135,44 @@ def test_a_groups_week_departs_from_its_own_weekdays() -> None:
     assert shapes[0, wed] > 5.0 * shapes[0, thu]
     # the pooled weekday/weekend shapes are the same sums' (48 bins): a flat group's day
     np.testing.assert_allclose(pool_week(w, per_day)[:, :per_day], 500.0)
+
+
+def test_a_fleet_of_weekdays_may_choose_the_week(tmp_path: Path) -> None:
+    """The market's Monday-to-Friday logs only (days 0-4 and 7-11, and the third Monday,
+    pending, which closes the second Friday): every weekday closed twice, no weekend day
+    ever. A day never observed takes its kind's hours under both calendars, so it is no
+    evidence either way: the week map chooses the week on its Wednesdays and forecasts the
+    third Wednesday's market there, not spread over five weekdays. Counting the fewest days
+    of all seven (0: the weekend), such a map could never choose it."""
+    logs = _logs("market", tmp_path, cuts=(5, 7, 12, 14))
+    weekdays = [logs[0], logs[2], logs[4]]
+    week = _build(weekdays, tmp_path / "week.aion", "--config", _week_config(tmp_path))
+    sums = read_map(week)[0]["temporal_week_sums"]
+    np.testing.assert_array_equal(sums[0].reshape(7, 24).max(axis=1), [2] * 5 + [0, 0])
+    calendar = run_json("info", week, "--format", "json")["families"]["calendar"]
+    assert calendar["weekday_days"] == 2
+    assert calendar["calendar"] == "week"
+    assert calendar["gain"] > 3.0
+    hour = np.arange(9, 14)
+    truth_wed = market_rates(np.full(5, 2), hour, np.zeros(5)).sum(axis=1)
+    truth_thu = market_rates(np.full(5, 3), hour, np.zeros(5)).sum(axis=1)
+    wed = _hourly_totals(week, "2026-01-21T09:00", "2026-01-21T13:00")
+    thu = _hourly_totals(week, "2026-01-22T09:00", "2026-01-22T13:00")
+    assert (wed > 0.6 * truth_wed).all()  # not the weekdays' (25 + 4 · 0.5) / 5 + 4 = 9.4
+    assert abs(thu.mean() - truth_thu.mean()) < 0.25 * truth_thu.mean()
+
+
+def test_too_few_days_are_counted_on_the_days_observed() -> None:
+    """``weekday_days`` is the fewest days of those the map observed: a map of two weeks of
+    weekdays, each closed twice, counts 2 (not its weekend's 0), one whose Saturday was
+    closed once beside them 1, and a map with no closed day 0."""
+    from aion_cli.engine.temporal.week_evidence import calendar_choice, empty_sums
+
+    sums = empty_sums(24)
+    sums[0, : 5 * 24] = 2.0
+    sums[3, 2 * 24 + 10] = 10.0  # a Wednesday's gain, over the 3-nat margin
+    assert calendar_choice(sums, 3.0) == {"calendar": "week", "gain": 10.0, "weekday_days": 2}
+    sums[0, 5 * 24 + 9] = 1.0  # a Saturday 09 h, once
+    assert calendar_choice(sums, 3.0)["weekday_days"] == 1
+    assert calendar_choice(sums, 3.0)["calendar"] == "day_weekend"
+    assert calendar_choice(empty_sums(24), 3.0)["weekday_days"] == 0

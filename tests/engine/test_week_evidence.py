@@ -105,11 +105,12 @@ def test_the_same_rhythm_every_week_keeps_weekdays_and_weekends(
 
 
 def test_too_few_days_keep_the_default(tmp_path: Path) -> None:
-    """Two days of the market scenario (a Monday closed, the Tuesday pending): no weekday
-    was closed twice, so the calendar stays weekdays and weekends whatever the gain."""
+    """Two days of the market scenario (a Monday closed, the Tuesday pending): the one day
+    observed was closed once, so the calendar stays weekdays and weekends whatever the gain
+    (nor is there a gain: the Monday had no earlier day to be scored against)."""
     logs = _logs("market", tmp_path, cuts=(2,))
     calendar = _calendar(_build(logs[:1], tmp_path / "two.aion"))
-    assert calendar == {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 0}
+    assert calendar == {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 1}
     assert calendar_choice(np.zeros((4, 0)), 3.0)["calendar"] == "day_weekend"
 
 

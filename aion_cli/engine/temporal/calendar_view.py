@@ -1,20 +1,20 @@
 """The calendar a week-profile map forecasts with: the week's bins, or its weekdays' and
 weekends' pooled, as the map's own evidence says.
 
-A map of ``profile = "week"`` keeps its entries' sums per hour of the week (168 bins an
-hour a bin). Whether its data asks for them is what the map's week sums judge day ahead
+A map of ``profile = "week"`` keeps its entries' sums per hour of the week (168 bins an hour
+a bin). Whether its data asks for them is what the map's week sums judge day ahead
 (:func:`~aion_cli.engine.temporal.week_evidence.calendar_choice`: ``week`` only when every
-weekday was observed on two days or more and the week's bins forecast the next day better by
-``family_margin`` nats). Where they say ``day_weekend`` (Lincoln's four days: one Friday
-standing for all Fridays), the forecast reads the same sums pooled into hours of weekdays
-and of weekends (:func:`pooled_view`): every profile-binned sum of a weekday bin summed over
-Monday–Friday at its hour, of a weekend bin over Saturday–Sunday — exactly the sums a
-``day_weekend`` map of the same days holds (the counts are whole numbers; the windows and
-``day_level`` add in another order, to the last bits) — with parameters of that profile, so
-the pooled map forecasts, scores and chooses its families as the ``day_weekend`` map does.
-Where they say ``week``, the week's bins are read as they are, each level's week shrunk
-toward its own weekdays and weekends (:func:`~aion_cli.engine.temporal.shape_prior.
-group_shapes`).
+day of the week the map observed was observed on two days or more and the week's bins
+forecast the next day better by ``family_margin`` nats). Where they say ``day_weekend``
+(Lincoln's four days: one Friday standing for all Fridays), the forecast reads the same sums
+pooled into hours of weekdays and of weekends (:func:`pooled_view`): every profile-binned
+sum of a weekday bin summed over Monday–Friday at its hour, of a weekend bin over
+Saturday–Sunday — exactly the sums a ``day_weekend`` map of the same days holds (the counts
+are whole numbers; the windows and ``day_level`` add in another order, to the last bits) —
+with parameters of that profile, so the pooled map forecasts, scores and chooses its
+families as the ``day_weekend`` map does. Where they say ``week``, the week's bins are read
+as they are, each level's week shrunk toward its own weekdays and weekends
+(:func:`~aion_cli.engine.temporal.shape_prior.group_shapes`).
 
 The choice is the map's, from sums over days (``week_sums``), so a continued build and a merge
 make it as one build does; the day-ahead scoring of each day uses the calendar the map's

@@ -25,11 +25,15 @@ disjoint days add them (``build --map``, ``aion merge``), as ``window_chi2`` and
 ``day_level``: a continued build's are the same to the bit, a merged map's days were each
 scored against its own part's earlier days.
 
-**The choice** (:func:`calendar_choice`): ``week`` when every weekday was observed on two days
-or more and the week's day-ahead gain exceeds ``family_margin`` nats; ``day_weekend``
-otherwise. The day-ahead score is what keeps a one-off busy day from passing for a weekday's
-rhythm: the next same weekday forecast with half of that day's excess loses what the first
-gained. A map written before the member reads as no evidence (``day_weekend``).
+**The choice** (:func:`calendar_choice`): ``week`` when every day of the week the map observed
+was observed on two days or more and the week's day-ahead gain exceeds ``family_margin`` nats;
+``day_weekend`` otherwise. A day never observed (the weekend of a fleet that runs on weekdays)
+does not count: its hours take the weekday/weekend rate under both calendars, no gain and no
+loss, so a map of weekdays whose Wednesdays differ may choose the week (before stop 70 the
+fewest days of all seven were counted, 0 on such a map, which could never choose it). The
+day-ahead score is what keeps a one-off busy day from passing for a weekday's rhythm: the
+next same weekday forecast with half of that day's excess loses what the first gained. A
+map written before the member reads as no evidence (``day_weekend``).
 
 What the choice does (stop 68): it is reported (``aion info``, ``predict --format json``),
 and the forecasts keep the configured profile. A map-wide week factor on every entry was
@@ -66,7 +70,9 @@ from aion_cli.errors import MapCorruptError
 MEMBER = "week_sums"
 """The map-file member (after the temporal prefix): float64[4, 7 · bins a day]."""
 MIN_DAYS = 2
-"""Days each weekday must have been observed on before ``week`` may be chosen."""
+"""Days each day of the week the map observed must have been observed on before ``week`` may
+be chosen (a day never observed is no evidence either way: its hours of the week take the
+weekday/weekend rate of their hour)."""
 _LOG_FLOOR = 1e-12
 
 
@@ -142,11 +148,15 @@ def _log_likelihood(count: F64, mean: F64) -> F64:
 def calendar_choice(sums: F64, margin: float) -> dict[str, Any]:
     """The calendar the data asks for (module docstring): ``calendar`` (``week`` or
     ``day_weekend``), ``gain`` (the week's day-ahead gain in nats, 0 before any score) and
-    ``weekday_days`` (the fewest days any weekday was observed on)."""
+    ``weekday_days`` (the fewest days any day of the week the map observed was observed on:
+    a day it never observed, the weekend of a map of weekdays, forecasts with its kind's
+    hours under either calendar and weighs neither way)."""
     if sums.size == 0:
         return {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 0}
     per_day = sums.shape[1] // 7
-    days = int(sums[0].reshape(7, per_day).max(axis=1).min())
+    per_weekday = sums[0].reshape(7, per_day).max(axis=1)
+    seen = per_weekday[per_weekday > 0]  # a day never observed takes its kind's hours
+    days = int(seen.min()) if seen.size else 0
     gain = float(sums[3].sum())
     week = days >= MIN_DAYS and gain > margin
     return {"calendar": "week" if week else "day_weekend", "gain": gain, "weekday_days": days}
