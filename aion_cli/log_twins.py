@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import zlib
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -119,17 +119,26 @@ def same_people(logset: Any, o: Overlap, adapter_of: AdapterOf) -> bool | None:
     span = (first[0].log_time_ns, first[-1].log_time_ns + 1)
     a = _detections(first, adapter_of, o.topics)
     b = _detections(_read(logset, j, topics, span, MAX_OTHER_MESSAGES), adapter_of, o.topics)
-    share = _shared_time_share(a, b)
-    return None if share is None else _same(*share)
+    shares = _shared_time_share(a, b)
+    return None if shares is None else _same(shares)
 
 
-def _same(share: float, chance: float) -> bool:
-    """Whether a match ``share`` says two logs (or topics) hold the same people: at least
-    :data:`SAME_SHARE`, and :data:`ABOVE_CHANCE` times the ``chance`` share."""
-    return share >= SAME_SHARE and share >= ABOVE_CHANCE * chance
+class Shares(NamedTuple):
+    """What :func:`_shared_time_share` found: the match ``share``, the share ``chance``
+    proximity gives, and the time tolerance ``near_s`` (s) both were taken within."""
+
+    share: float
+    chance: float
+    near_s: float
 
 
-def _shared_time_share(a: F64, b: F64) -> tuple[float, float] | None:
+def _same(shares: Shares) -> bool:
+    """Whether a match share says two logs (or topics) hold the same people: at least
+    :data:`SAME_SHARE`, and :data:`ABOVE_CHANCE` times the chance share."""
+    return shares.share >= SAME_SHARE and shares.share >= ABOVE_CHANCE * shares.chance
+
+
+def _shared_time_share(a: F64, b: F64) -> Shares | None:
     """The larger :func:`_near_share` either way round, each against the other where both
     have detections (the other may start later, or a sample end sooner), and the share
     chance proximity gives there. Over a stretch of :data:`TOLERANCES_PER_OVERLAP` times
@@ -153,12 +162,12 @@ def _shared_time_share(a: F64, b: F64) -> tuple[float, float] | None:
         return None
     share = max(_near_share(a, b, near_s), _near_share(b, a, near_s))
     if near_s == NEAR_S:  # long enough for time to tell
-        return share, 0.0
+        return Shares(share, 0.0, near_s)
     turned = b.copy()  # half the stretch later, the end's detections wrapped to its start
     turned[:, 0] = start + (b[:, 0] - start + length / 2) % (length + near_s)
     turned = turned[np.argsort(turned[:, 0], kind="stable")]
     chance = max(_near_share(a, turned, near_s), _near_share(turned, a, near_s))
-    return share, chance
+    return Shares(share, chance, near_s)
 
 
 def topic_twin_warnings(logset: Any, topics: list[str], adapter_of: AdapterOf) -> list[str]:
@@ -186,11 +195,11 @@ def topic_twin_warnings(logset: Any, topics: list[str], adapter_of: AdapterOf) -
     for i, a in enumerate(named):
         for b in named[i + 1 :]:
             shares = _shared_time_share(rows[a], rows[b])
-            if shares is not None and _same(*shares):
-                share = shares[0]
+            if shares is not None and _same(shares):
+                share, near_s = shares.share, shares.near_s  # a short stretch: a finer time
                 out.append(
                     f"{a} and {b} hold the same people at the same times and places ({share:.0%} "
-                    f"of one's detections have one of the other's within {NEAR_S:g} s and "
+                    f"of one's detections have one of the other's within {near_s:.3g} s and "
                     f"{NEAR_M:g} m): every person they both saw counts twice; build from one "
                     f"of them with --detections-topic {a}"
                 )

@@ -52,3 +52,26 @@ def test_two_topics_of_other_people_at_the_same_times_do_not_warn(tmp_path: Path
     assert report["detection_topics"] == ["/left/people", "/right/people"]
     assert report["detections"]["used"] == 80
     assert _twin_warnings(report) == []
+
+
+def test_topics_sharing_under_two_seconds_name_the_finer_tolerance(tmp_path: Path) -> None:
+    """Two topics of one person walking at 3 m/s, the same poses 0.9 s long (ten messages
+    0.1 s apart): a stretch shorter than four tolerances of 0.5 s is compared within a
+    quarter of it, 0.225 s (``log_twins._shared_time_share``), and the warning names that
+    tolerance, not the 0.5 s of longer stretches it had named."""
+    from aion_cli.formats.writers import LogWriter
+
+    log = tmp_path / "short.mcap"
+    with LogWriter(log, "mcap") as w:
+        for k in range(10):
+            t = T0 + k * S // 10
+            header = {"stamp": {"sec": t // S, "nanosec": t % S}, "frame_id": "map"}
+            pose = {"position": {"x": 0.3 * k, "y": 1.0}, "orientation": {"w": 1.0}}
+            for topic in ("/people", "/people_fused"):
+                message = {"header": header, "poses": [pose]}
+                w.write(topic, "geometry_msgs/msg/PoseArray", message, t)
+    report = run_json("build", log, "-o", tmp_path / "m.aion", "--format", "json")
+    (warning,) = _twin_warnings(report)
+    assert "(100% of one's detections have one of the other's within 0.225 s and 0.5 m)" in (
+        warning
+    ), warning
