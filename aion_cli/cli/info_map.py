@@ -311,7 +311,7 @@ def input_rows(
 
 
 def calendar_text(calendar: dict[str, Any], profile: str) -> str:
-    """The ``calendar`` row of ``aion info``: the calendar the map's closed days ask for
+    """The ``calendar`` row of ``aion info``: the calendar the map's days ask for
     (``families.calendar``, :mod:`aion_cli.engine.temporal.week_evidence`) and the one its
     forecasts use (``profile``; a ``week`` map's follow the choice,
     :mod:`aion_cli.engine.temporal.calendar_view`)."""

@@ -10,6 +10,7 @@ import numpy as np
 
 from aion_cli.engine.closing import open_window_record
 from aion_cli.engine.temporal import query_state
+from aion_cli.engine.temporal.absorption import view_week_sums
 from aion_cli.engine.temporal.choice import CHOICE_RULES
 from aion_cli.engine.temporal.week_evidence import calendar_choice
 
@@ -24,8 +25,9 @@ def family_summary(state: MapState) -> dict[str, Any]:
     window included (:func:`~aion_cli.engine.temporal.query_state.observed_bins`: a forecast in
     another bin is extrapolated). The choice depends only on the day-ahead scores, so no
     forecast is prepared. ``calendar``: the hours of the week or of weekdays and weekends, as
-    the closed days' map totals judge them day ahead
-    (:func:`~aion_cli.engine.temporal.week_evidence.calendar_choice`)."""
+    the map totals judge them day ahead, the pending day and open window absorbed as a
+    query absorbs them (:func:`~aion_cli.engine.temporal.week_evidence.calendar_choice`; the
+    calendar a ``week`` map's forecasts use, :mod:`~aion_cli.engine.temporal.calendar_view`)."""
     rows = state.entries.canonical_order()
     groups, n_groups = state.groups(rows)
     t = state.scored_temporal()
@@ -36,6 +38,9 @@ def family_summary(state: MapState) -> dict[str, Any]:
     if (open_window := open_window_record(state)) is not None:
         parts.append(open_window)
     observed = query_state.observed_bins(params, state.temporal, rows, parts, state.window_ns)
+    # the calendar a query's view chooses (pending day and open window absorbed), which a
+    # ``week`` map's forecasts use: the closed days' alone may say another
+    week_sums = view_week_sums(params, state.temporal, parts, state.window_ns)
     return {
         "flow": _tally(np.asarray(params.flow)[flow]),
         "direction": _tally(np.asarray(params.direction)[direction]),
@@ -45,7 +50,7 @@ def family_summary(state: MapState) -> dict[str, Any]:
         "last_day_provisional": state.provisional_scores() is not None,  # cached
         "observed_bins": observed.tolist(),
         "rules": CHOICE_RULES,
-        "calendar": calendar_choice(state.temporal.week_sums, state.config.family_margin),
+        "calendar": calendar_choice(week_sums, state.config.family_margin),
     }
 
 

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aion_cli.engine.closing import open_window_record
-from aion_cli.engine.temporal.absorption import absorb, slot_times
+from aion_cli.engine.temporal.absorption import absorb_parts, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.calendar_view import pooled_view
 from aion_cli.engine.temporal.params import TemporalParams
@@ -88,8 +88,7 @@ def absorbed(
     t.cnt_fourier = np.zeros((t.n_rows, v, 0), np.complex128)
     obs.fourier, t.fourier_loaded = np.zeros((t.n_rows, 0), np.complex128), False
     try:
-        for part in parts:
-            absorb(params, t, part, window_ns)
+        absorb_parts(params, t, parts, window_ns)  # as a query's view absorbs them
         yield
     finally:  # the very arrays back (a writer may hold them), their values put back in place
         t.cnt_profile, t.obs, t.glob = counts, obs, glob

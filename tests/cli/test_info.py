@@ -211,8 +211,9 @@ def test_info_on_a_map_counts_the_families(office: Office, tmp_path: Path) -> No
         "last_day_provisional": False,
         "observed_bins": [8],  # the office log's 20 minutes from Monday 08:00 UTC
         "rules": 3,  # the choice rules the counts were taken under (engine.temporal.choice)
-        # no closed day: no weekday seen, nothing scored, the default calendar
-        "calendar": {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 0},
+        # no closed day: the pending Monday seen once as a query absorbs it (its open window
+        # is no second day), nothing scored against an earlier day, the default calendar
+        "calendar": {"calendar": "day_weekend", "gain": 0.0, "weekday_days": 1},
     }
     assert doc["timezone"] == "UTC"
     table = run("info", office.map)

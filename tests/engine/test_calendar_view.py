@@ -176,3 +176,27 @@ def test_too_few_days_are_counted_on_the_days_observed() -> None:
     assert calendar_choice(sums, 3.0)["weekday_days"] == 1
     assert calendar_choice(sums, 3.0)["calendar"] == "day_weekend"
     assert calendar_choice(empty_sums(24), 3.0)["weekday_days"] == 0
+
+
+def test_the_summary_names_the_calendar_the_forecasts_use(tmp_path: Path) -> None:
+    """The market's first 14 days, Monday to Sunday: its second Sunday is the pending day, so
+    the closed days saw Sunday once (too few to judge), while a query, which absorbs the
+    pending day, sees every day of the week twice and forecasts with the week's hours. The
+    manifest's calendar (``aion info``'s row: 'forecasts use ... pooled into weekdays and
+    weekends') had been the closed days' alone; it is now the one the query's view chooses."""
+    from aion_cli.engine.temporal.calendar_view import forecast_calendar
+    from aion_cli.engine.temporal.week_evidence import calendar_choice
+    from aion_cli.mapquery import load_map
+
+    first = _logs("market", tmp_path, cuts=(14,))[0]
+    week = _build([first], tmp_path / "week.aion", "--config", _week_config(tmp_path))
+    closed = read_map(week)[0]["temporal_week_sums"][0].reshape(7, 24).max(axis=1)
+    np.testing.assert_array_equal(closed, [2] * 6 + [1])  # the second Sunday pending
+    state = load_map(week).state
+    view = state.query_temporal()
+    assert forecast_calendar(state.params, view) == "week"
+    calendar = run_json("info", week, "--format", "json")["families"]["calendar"]
+    assert calendar == calendar_choice(view.week_sums, state.config.family_margin)
+    assert calendar["calendar"] == "week"
+    assert calendar["weekday_days"] == 2
+    assert 'profile = "week", the week\'s hours' in calendar_text(calendar, "week")

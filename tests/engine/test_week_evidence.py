@@ -204,3 +204,21 @@ def test_sums_of_another_calendars_width_are_refused_on_reading_the_map() -> Non
     wide[:3] = 1.0
     with pytest.raises(MapCorruptError, match="week_sums"):
         MapState.from_arrays({**arrays, "temporal_week_sums": wide}, meta)
+
+
+def test_a_querys_open_window_is_no_second_day(tmp_path: Path) -> None:
+    """Two days of the market scenario: the Monday closed, the Tuesday pending with its last
+    window open. A query absorbs the pending day and then the open window (a window of the
+    same Tuesday); the week sums' days observed had counted the Tuesday twice (2 at the
+    open window's hour), so a day of the week seen once passed for the two days the week's
+    hours need (``MIN_DAYS``). One day each now, as closing the day will count it."""
+    from aion_cli.engine.closing import open_window_record
+    from aion_cli.mapquery import load_map
+
+    logs = _logs("market", tmp_path, cuts=(2,))
+    state = load_map(_build(logs[:1], tmp_path / "two.aion")).state
+    assert state.pending  # both parts there
+    assert open_window_record(state) is not None
+    view = state.query_temporal()
+    days = view.week_sums[0].reshape(7, 24).max(axis=1)
+    np.testing.assert_array_equal(days, [1, 1, 0, 0, 0, 0, 0])

@@ -15,6 +15,8 @@ Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -25,7 +27,7 @@ from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.shape_prior import day_chi2
 from aion_cli.engine.temporal.week_evidence import add_day, week_bins
-from aion_cli.engine.types import F64, I64
+from aion_cli.engine.types import F64, I64, BoolA
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
 C128 = npt.NDArray[np.complex128]
@@ -47,16 +49,105 @@ def slot_utc_seconds(day: DayWindows, window_ns: int) -> F64:
     return to_model_seconds(window_centre_ns(day.windows, window_ns))
 
 
-def absorb(params: TemporalParams, state: TemporalState, day: DayWindows, window_ns: int) -> None:
-    """Absorb the day's windows without scoring them (a query's view of the state)."""
+def absorb(
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    window_ns: int,
+    counted: BoolA | None = None,
+) -> None:
+    """Absorb the day's windows without scoring them (a query's view of the state);
+    ``counted``: :func:`~aion_cli.engine.temporal.week_evidence.add_day`'s (more of a day
+    absorbed before: :func:`absorb_parts`)."""
     if day.windows.size == 0:
         return
     t_s, h = slot_times(params, day, window_ns)
-    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns))
+    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns), counted)
+
+
+def absorb_parts(
+    params: TemporalParams, state: TemporalState, parts: list[DayWindows], window_ns: int
+) -> None:
+    """A query's ``parts`` (the pending day, then the open window) absorbed in turn
+    (``query_state.query_view``): a part on the local day the part before it ended on is
+    more of that day, whose hours of the week count no second day observed in the week sums
+    (the open window of a map's pending day had counted the day twice there, and a day of
+    the week seen once passed for two days: ``week_evidence.MIN_DAYS``)."""
+
+    def step(part: DayWindows, counted: BoolA | None) -> F64:
+        absorb(params, state, part, window_ns, counted)
+        return state.week_sums
+
+    _by_day(params, parts, window_ns, state.week_sums, step)
+
+
+def view_week_sums(
+    params: TemporalParams, state: TemporalState, parts: list[DayWindows], window_ns: int
+) -> F64:
+    """``state.week_sums`` as a query's view holds them (:func:`absorb_parts`), without
+    absorbing anything else: each part scored against the sums and the burstiness before it
+    and added, as :func:`absorb_day` adds it. What a ``week`` map's forecasts choose their
+    calendar by (:mod:`.calendar_view`); ``state`` is unchanged."""
+    sums, chi2 = state.week_sums, state.window_chi2
+
+    def step(part: DayWindows, counted: BoolA | None) -> F64:
+        nonlocal sums, chi2
+        _, h = slot_times(params, part, window_ns)
+        utc_s = slot_utc_seconds(part, window_ns)
+        sums, chi2 = _week_step(params, sums, chi2, part, h, utc_s, counted)
+        return sums
+
+    _by_day(params, parts, window_ns, sums, step)
+    return sums
+
+
+def _by_day(
+    params: TemporalParams,
+    parts: list[DayWindows],
+    window_ns: int,
+    sums: F64,
+    step: Callable[[DayWindows, BoolA | None], F64],
+) -> None:
+    """``step`` (absorbing a part, returning the week sums after it) on each part with
+    windows, given the hours of the week counted observed already by the parts of its local
+    day before it (None for a part that begins another day)."""
+    day, counted = None, None
+    for part in parts:
+        if part.windows.size == 0:
+            continue
+        ends = params.calendar.day(window_centre_ns(part.windows[[0, -1]], window_ns))
+        same = day is not None and int(ends[0]) == day
+        before = sums[0] if sums.size else 0.0
+        sums = step(part, counted if same else None)
+        added = sums[0] > before
+        counted = added | counted if same and counted is not None else added
+        day = int(ends[-1])
+
+
+def _week_step(
+    params: TemporalParams,
+    sums: F64,
+    chi2: F64,
+    day: DayWindows,
+    h: I64,
+    utc_s: F64,
+    counted: BoolA | None = None,
+) -> tuple[F64, F64]:
+    """The week sums with ``day`` scored against them and added, and the burstiness sums
+    with the day's added (new arrays)."""
+    week = week_bins(params.calendar, h, utc_s)
+    sums = add_day(sums, day, week, chi2, params.calendar.bins_per_day, counted)
+    return sums, chi2 + day_chi2(day, h, params.n_profile)
 
 
 def absorb_day(
-    params: TemporalParams, state: TemporalState, day: DayWindows, t_s: F64, h: I64, utc_s: F64
+    params: TemporalParams,
+    state: TemporalState,
+    day: DayWindows,
+    t_s: F64,
+    h: I64,
+    utc_s: F64,
+    counted: BoolA | None = None,
 ) -> None:
     """Absorb the day's windows (model times ``t_s``, profile bins ``h``, UTC model seconds
     ``utc_s`` per slot: :func:`slot_times`, :func:`slot_utc_seconds`). A query's
@@ -78,11 +169,11 @@ def absorb_day(
             np.array([utc_s[fixed].max()]),
         )
         state.glob.add_block(np.array([0]), block)
-    state.week_sums = add_day(  # scored against the week's bins, then added
-        state.week_sums, day, week_bins(params.calendar, h, utc_s), state.window_chi2,
-        params.calendar.bins_per_day,
+    # scored against the week's bins, then added; how bursty the day's window totals are
+    state.week_sums, chi2 = _week_step(
+        params, state.week_sums, state.window_chi2, day, h, utc_s, counted
     )
-    state.window_chi2 += day_chi2(day, h, n_prof)  # how bursty the day's window totals are
+    state.window_chi2[...] = chi2  # in place: a writer may hold the array
     state.day_level = add_sums(state.day_level, day_sums(day, h, n_prof))  # and their level
     obs_e, obs_s, obs_w = day.own_pairs()
     for o in _row_blocks(obs_e):

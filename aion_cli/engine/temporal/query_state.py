@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from aion_cli.engine.temporal.absorption import absorb, slot_times
+from aion_cli.engine.temporal.absorption import absorb_parts, slot_times
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.choice import choose_families
 from aion_cli.engine.temporal.components import FremenComponents
@@ -33,9 +33,7 @@ def query_view(
     if day is None and open_window is None:
         return state
     view = state if in_place else state.copy()
-    for part in (day, open_window):
-        if part is not None:
-            absorb(params, view, part, window_ns)
+    absorb_parts(params, view, [p for p in (day, open_window) if p is not None], window_ns)
     if in_place:
         pending.clear()
     return view
