@@ -362,6 +362,7 @@ class StreamStep:
             self._logs,
             self._continued_name(),
             self._times.start_ns,  # the logs' own clock (log times)
+            self.previous.config.timezone if self.previous else "UTC",  # the hint's --tz
         )
         if first:
             self.note_overlap(int(t_ns.min()))

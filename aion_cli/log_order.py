@@ -57,13 +57,15 @@ def check_after_open(
     logs: Sequence[Path],
     map_name: str,
     log_start_ns: int | None = None,
+    zone: str = "UTC",
 ) -> None:
     """A continued map (``map_name``, built from ``map_inputs``) has closed every window before
     its open one, which starts at ``open_start``: ``what``s of ``logs`` there (times ``t_ns``:
     detection stamps, scene-graph times) would be lost (``before_window``) and yet the logs
     recorded as added, so they could never be added again. :class:`InputError` instead,
     before anything is written; :func:`other_clock_error` when the logs' own log times (from
-    ``log_start_ns``) are a simulation's clock and the map's windows are not."""
+    ``log_start_ns``) are a simulation's clock and the map's windows are not. ``zone``: the
+    map's, which the hint's rebuild keeps (:func:`out_of_order_error`)."""
     early = int(np.count_nonzero(t_ns < open_start))
     if early == 0:
         return
@@ -72,7 +74,7 @@ def check_after_open(
     if clocks is not None:
         raise clocks
     raise out_of_order_error(
-        f"the {what}s of {names}", int(t_ns.min()), open_start, map_name, map_inputs, logs
+        f"the {what}s of {names}", int(t_ns.min()), open_start, map_name, map_inputs, logs, zone
     )
 
 
@@ -83,20 +85,24 @@ def out_of_order_error(
     map_name: str,
     map_inputs: Sequence[str],
     logs: Sequence[Path],
+    zone: str = "UTC",
 ) -> InputError:
     """The refusal of data (``what``: "the detections of a.mcap", first at ``first_ns``)
     before the open window (from ``open_start``) of the continued map ``map_name``: its hint
     is the command that builds the map's inputs (``map_inputs``) and the build's ``logs`` at
-    once. One text for both routes: a sequential build (:func:`check_after_open`) and a
-    parallel one's fold of its shards (:func:`aion_cli.shard_fold.fold`)."""
+    once, on the map's clock (``zone``, its ``--tz``: a build without it is on UTC or the
+    logs' declared zone, another map's days). One text for both routes: a sequential build
+    (:func:`check_after_open`) and a parallel one's fold of its shards
+    (:func:`aion_cli.shard_fold.fold`)."""
     # paths quoted as a shell needs them (a space in a folder's name)
     words = [*map(path_word, map_inputs[:3]), *(["..."] if len(map_inputs) > 3 else [])]
     listed = " ".join([*words, *map(path_word, logs[:3])])
+    clock = "" if zone == "UTC" else f" --tz {path_word(zone)}"
     return InputError(
         f"{what} start at {utc_text(first_ns)}, but {map_name} has already closed every "
         f"window before {utc_text(open_start)}: logs must be added to a map in time order; "
         "nothing was added",
-        hint=f"rebuild the map from all logs at once (aion build {listed} -o NEW.aion)",
+        hint=f"rebuild the map from all logs at once (aion build {listed}{clock} -o NEW.aion)",
     )
 
 

@@ -307,7 +307,7 @@ def _check_after_map(result: ShardResult, task: ShardTask, open_start: int) -> N
         check_continued(task.recordings, name, _names(task.logs), result.report.sketch)
     raise out_of_order_error(
         f"the {what}s of {_names(task.logs)}", early[what], open_start, name, task.map_inputs,
-        task.opts.logs,
+        task.opts.logs, task.config.timezone,
     )
 
 

@@ -452,3 +452,26 @@ def test_an_older_log_is_refused_with_times_on_the_maps_clock(tmp_path: Path) ->
         "m.aion has already closed every window before 2026-11-23 19:10:00+09:00",
     )
     assert " UTC" not in result.stderr
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_the_refusals_rebuild_keeps_the_maps_clock(
+    tmp_path: Path, workers: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The hint's rebuild of a map built with ``--tz Asia/Tokyo`` (logs that declare no zone)
+    had no ``--tz``: followed, it built a map on UTC, whose days and daily profiles are other
+    hours. It names the map's zone now, by either route, and the map it builds is on it."""
+    old = write_log(tmp_path / "old.mcap", walk(1200))
+    new = write_log(tmp_path / "new.mcap", walk(1200, start_s=7200))
+    target = tmp_path / "m.aion"
+    build_json(new, "-o", target, "--tz", "Asia/Tokyo")
+    result = run("build", old, "--map", target, "--workers", workers)
+    hint = next(line for line in result.stderr.splitlines() if line.startswith("hint: "))
+    command = shlex.split(hint.split("(", 1)[1].rsplit(")", 1)[0])
+    assert command[:2] == ["aion", "build"]
+    assert command[-4:] == ["--tz", "Asia/Tokyo", "-o", "NEW.aion"], hint
+    rebuilt = tmp_path / "NEW.aion"
+    monkeypatch.chdir(tmp_path)  # the hint names the map's inputs as the map recorded them
+    build_json(*command[2:-1], rebuilt)
+    assert read_manifest(target)["timezone"] == "Asia/Tokyo"
+    assert read_manifest(rebuilt)["timezone"] == "Asia/Tokyo"
