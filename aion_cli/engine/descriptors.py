@@ -106,31 +106,70 @@ def bin_directions(
     return ux, uy
 
 
-def pooled_heading_sums(
-    heading_cos: F64, heading_sin: F64, groups: npt.NDArray[np.int64], n_groups: int
-) -> tuple[F64, F64]:
+@dataclass(frozen=True)
+class PooledHeadings:
     """Per entry and bin, the heading sums that place the bin: the entry's own where it has
     any, else its pooling group's (its room or neighbourhood, the group whose histogram fills
     the entry's empty bins in a forecast), else the map's. A forecast gives an entry's bins
     without detections of its own their share from the group's and the map's histograms, so
-    their direction is where the group's (or map's) detections went, not the bin's centre."""
-    own_c = np.asarray(heading_cos, dtype=np.float64)
-    own_s = np.asarray(heading_sin, dtype=np.float64)
-    rows, bins = own_c.shape
-    group_c = np.zeros((max(n_groups, 0), bins))
-    group_s = np.zeros((max(n_groups, 0), bins))
-    if rows:
-        np.add.at(group_c, groups, own_c)
-        np.add.at(group_s, groups, own_s)
-    out_c, out_s = own_c.copy(), own_s.copy()
-    empty = (own_c == 0) & (own_s == 0)
-    if rows and empty.any():
-        r, b = np.nonzero(empty)
-        out_c[r, b], out_s[r, b] = group_c[groups[r], b], group_s[groups[r], b]
-        still = (out_c == 0) & (out_s == 0)
-        r, b = np.nonzero(still)
-        out_c[r, b], out_s[r, b] = own_c.sum(axis=0)[b], own_s.sum(axis=0)[b]
-    return out_c, out_s
+    their direction is where the group's (or map's) detections went, not the bin's centre.
+
+    The groups' and the map's sums are summed once (:meth:`of`); an entry's placed bins are
+    picked on demand (:meth:`rows`), so ``predict --top 10`` of a map of 10^5 entries places
+    the bins of ten rows. Rows past the entries (``extra``: a graph's places without an
+    entry) have none (zeros)."""
+
+    own_cos: F64
+    own_sin: F64
+    groups: I64
+    group_cos: F64
+    group_sin: F64
+    map_cos: F64
+    map_sin: F64
+    extra: int = 0
+
+    @classmethod
+    def of(
+        cls,
+        heading_cos: F64,
+        heading_sin: F64,
+        groups: I64,
+        n_groups: int,
+        extra: int = 0,
+    ) -> PooledHeadings:
+        """From the entries' own sums ``heading_cos``/``heading_sin`` [E, B] (kept, not
+        copied: the caller does not write them) and their pooling groups; each group's sums
+        its entries' in row order, the map's every entry's (``sum(axis=0)``)."""
+        from aion_cli.engine.temporal.pooling import group_sums
+
+        own_c = np.asarray(heading_cos, dtype=np.float64)
+        own_s = np.asarray(heading_sin, dtype=np.float64)
+        g = np.asarray(groups, dtype=np.int64)
+        n = max(n_groups, 0)
+        return cls(
+            own_c, own_s, g, group_sums(g, n, own_c), group_sums(g, n, own_s),
+            own_c.sum(axis=0), own_s.sum(axis=0), extra,
+        )
+
+    def __len__(self) -> int:
+        return len(self.own_cos) + self.extra
+
+    def rows(self, pick: I64 | None = None) -> tuple[F64, F64]:
+        """The placed sums (cos, sin) of rows ``pick`` (None: every row), float64[P, B]."""
+        n, bins = self.own_cos.shape
+        index = np.arange(len(self)) if pick is None else np.asarray(pick, dtype=np.int64)
+        out_c, out_s = np.zeros((index.size, bins)), np.zeros((index.size, bins))
+        inside = np.flatnonzero(index < n)
+        at = index[inside]
+        own_c, own_s = self.own_cos[at], self.own_sin[at]
+        g = self.groups[at]
+        empty = (own_c == 0) & (own_s == 0)
+        c = np.where(empty, self.group_cos[g], own_c)
+        s = np.where(empty, self.group_sin[g], own_s)
+        still = (c == 0) & (s == 0)
+        out_c[inside] = np.where(still, self.map_cos, c)
+        out_s[inside] = np.where(still, self.map_sin, s)
+        return out_c, out_s
 
 
 def _dot_rows(x: F64, v: F64) -> F64:

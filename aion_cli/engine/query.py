@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from aion_cli.engine import descriptors
-from aion_cli.engine.descriptors import Descriptors
+from aion_cli.engine.descriptors import Descriptors, PooledHeadings
 from aion_cli.engine.entries import CELL, NODE
 from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.node_ids import node_labels
@@ -49,9 +49,10 @@ class EntryTable:
     cells; ``rate``/``flow``/``speed_sum``/``speed_n`` are the additive quantities the
     descriptors were computed from, with ``heading_cos``/``heading_sin`` (the per-bin sums of
     the headings' unit vectors: where in each bin the flow goes; None: the bins' centres);
-    ``bin_cos``/``bin_sin``, where given, place the bins instead (the entries' own sums, their
-    group's or the map's where they have none: :func:`descriptors.pooled_heading_sums`; not
-    additive, so rooms sum ``heading_*``). ``key`` is a cell's spatial-hash key (−1 for other
+    ``placed``, where given, places the bins instead (the entries' own sums, their group's or
+    the map's where they have none: :class:`descriptors.PooledHeadings`, picked for the rows
+    described only; ``bin_cos``/``bin_sin`` every row's; not additive, so rooms sum
+    ``heading_*``). ``key`` is a cell's spatial-hash key (−1 for other
     rows);
     ``ids`` (``c<key>`` for cells, spark_dsg symbols such as ``p12`` otherwise) are formatted
     on first use, since turning 10^5 integers into strings costs more than the prediction."""
@@ -71,8 +72,7 @@ class EntryTable:
     direction_family: StrA
     heading_cos: F64 | None = None
     heading_sin: F64 | None = None
-    bin_cos: F64 | None = None
-    bin_sin: F64 | None = None
+    placed: PooledHeadings | None = None
     total_dispersion: float = 1.0
     """How bursty the map's window totals are (φ_T, ``Predictor.phi_total``): what
     :func:`aggregate_table` widens a sum of places' variances by (1: the places' counts
@@ -95,10 +95,11 @@ class EntryTable:
         :attr:`descriptors` computes them: ``predict --top 10`` of a map of 10^5 entries
         describes ten."""
         pick: slice | npt.NDArray[np.int64] = slice(None) if rows is None else rows  # views
-        cos = self.bin_cos if self.bin_cos is not None else self.heading_cos
-        sin = self.bin_sin if self.bin_sin is not None else self.heading_sin
-        hc = None if cos is None else cos[pick]
-        hs = None if sin is None else sin[pick]
+        if self.placed is not None:
+            hc, hs = self.placed.rows(rows)
+        else:
+            hc = None if self.heading_cos is None else self.heading_cos[pick]
+            hs = None if self.heading_sin is None else self.heading_sin[pick]
         return _descriptors(
             self.rate[pick], self.flow[pick], self.speed_sum[pick], self.speed_n[pick],
             self.window_s, hc, hs,
@@ -108,6 +109,16 @@ class EntryTable:
         """The q-quantile of the number of detections in a window (negative binomial with
         the predicted mean and variance; NaN where unknown, e.g. historical tables)."""
         return count_quantiles(self.flow, self.flow_var, q)
+
+    @cached_property
+    def bin_cos(self) -> F64 | None:
+        """Every row's placed cos sums (``placed``), None without them."""
+        return None if self.placed is None else self.placed.rows()[0]
+
+    @cached_property
+    def bin_sin(self) -> F64 | None:
+        """Every row's placed sin sums (``placed``), None without them."""
+        return None if self.placed is None else self.placed.rows()[1]
 
     @cached_property
     def ids(self) -> StrA:
@@ -148,12 +159,9 @@ def _entry_table(
     ent = state.entries
     # the pooling groups the forecast filled the entries' empty bins from (the predictor's own)
     fc = predictor.forecaster
-    # gathered once for both uses (pooled_heading_sums reads them, never writes them): each
-    # is a fresh E x B copy, 6.4 MB on a 10^5-entry map
+    # gathered once for both uses (PooledHeadings reads them, never writes them): each is a
+    # fresh E x B copy, 6.4 MB on a 10^5-entry map
     heading_cos, heading_sin = ent.heading_cos[rows], ent.heading_sin[rows]
-    bin_cos, bin_sin = descriptors.pooled_heading_sums(
-        heading_cos, heading_sin, fc.groups, len(fc.pool.histogram)
-    )
     table = _table(
         state,
         rows,
@@ -170,8 +178,9 @@ def _entry_table(
     extra = len(table) - len(rows)  # the graph's places without an entry: no flow
     return replace(
         table,
-        bin_cos=np.concatenate([bin_cos, np.zeros((extra, state.bins))]),
-        bin_sin=np.concatenate([bin_sin, np.zeros((extra, state.bins))]),
+        placed=PooledHeadings.of(
+            heading_cos, heading_sin, fc.groups, len(fc.pool.histogram), extra
+        ),
         total_dispersion=predictor.phi_total,
         level_variance=predictor.level_variance,
     )

@@ -119,7 +119,7 @@ def discretise(table: EntryTable, centres: F64, radius: float) -> MapView:
     hit = np.isfinite(dist)
     # like with like: the grid knows its bins only by their centres, so aion's directions are
     # compared as its bins' centres place them too (not at its headings' own mean directions)
-    d = replace(table, heading_cos=None, heading_sin=None, bin_cos=None, bin_sin=None).descriptors
+    d = replace(table, heading_cos=None, heading_sin=None, placed=None).descriptors
     entropy[hit] = d.entropy[idx[hit]]
     flow[hit] = d.flow_per_window[idx[hit]]
     angle[hit] = d.dominant_angle[idx[hit]]

@@ -5,6 +5,7 @@ and the dicts of the rows printed are the dicts of the whole table."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,3 +51,27 @@ def test_array_order_is_the_dict_order_with_ties_and_unknown_flows(office: Offic
             tied = dataclasses.replace(table, flow=flat)  # its descriptors follow the flow
             want = sorted(range(len(table)), key=lambda e: str(table.ids[e]))
             assert ordered_rows(tied, every, 4).tolist() == want[:4]
+
+
+def test_described_rows_equal_the_whole_tables_rows(sample_map: Path) -> None:
+    """The bundled sample's map at noon (bins its entries lack placed by their groups' and
+    the map's headings, ``descriptors.PooledHeadings``): the ten busiest rows described
+    alone, as ``--top 10`` describes them, and every row in any order, equal their rows of
+    the whole table's descriptors, directions included, to the bit."""
+    table = predict_table(load_map(sample_map).state, 1_767_960_000 * 10**9)
+    assert table.placed is not None
+    assert table.bin_cos is not None
+    assert table.bin_sin is not None
+    heading_cos = table.heading_cos
+    assert heading_cos is not None
+    assert (table.bin_cos != heading_cos).any()  # bins placed by groups or the map: tested
+    whole = table.descriptors
+    flowing = np.flatnonzero(np.nan_to_num(whole.flow_per_window) > 0)
+    assert flowing.size > 10
+    busiest = flowing[np.argsort(-whole.flow_per_window[flowing], kind="stable")[:10]]
+    for pick in (busiest, np.arange(len(table))[::-1], np.asarray([len(table) - 1, 0])):
+        part = table.descriptors_of(pick)
+        for name in ("flow_per_window", "probabilities", "dominant_bin", "dominant_angle",
+                     "concentration", "entropy", "mean_speed", "mean_angle"):
+            got, want = getattr(part, name), getattr(whole, name)[pick]
+            assert np.array_equal(got, want, equal_nan=True), name
