@@ -30,6 +30,7 @@ import numpy.typing as npt
 from aion_cli.engine import descriptors
 from aion_cli.engine.descriptors import Descriptors, PooledHeadings
 from aion_cli.engine.entries import CELL, NODE
+from aion_cli.engine.grouping import contained
 from aion_cli.engine.hierarchy import aggregate
 from aion_cli.engine.node_ids import node_labels
 from aion_cli.engine.state import MapState
@@ -315,7 +316,7 @@ def _table(
     graph = state.graph
     place_layer = graph.layer_name if graph is not None else "places"
     if graph is not None and len(graph.places):
-        missing = ~np.isin(graph.places.ids, node_id)
+        missing = ~contained(node_id, graph.places.ids)  # np.isin without numpy.ma
         k = int(missing.sum())
         node_id = np.concatenate([node_id, graph.places.ids[missing]])
         kind = np.concatenate([kind, np.full(k, NODE, np.int8)])
