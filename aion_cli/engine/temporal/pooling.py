@@ -89,15 +89,15 @@ class PoolStats:
         timed = bool(params.direction_enabled[1:].any())  # families after ``static``
         if priors is not None and priors.kappa_g is None:
             timed = False  # no shift: the groups' hourly counts are not needed
-        hourly = np.zeros((n_groups, b, h)) if timed else None
+        # every entry at once: one sort by group, not one per block (whole numbers: the same
+        # sums in any grouping)
+        hourly = group_hourly(state.cnt_profile, rows, groups, n_groups, b) if timed else None
         directed_blocks = []
         glob = state.glob.profile[0]
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
             block = rows_of(state.cnt_profile, r) if totals is None or counts is None else None
-            if hourly is not None:
-                hourly += group_hourly(state.cnt_profile, r, g, n_groups, b)
             s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
             w_e = rows_of(state.obs.profile, r) + glob
             s_g += group_sums(g, n_groups, s_e)
