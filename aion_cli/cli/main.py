@@ -80,7 +80,7 @@ class AionGroup(click.Group):
         super().__init__(*args, **kwargs)
 
     @property
-    def commands(self) -> MutableMapping[str, click.Command]:  # type: ignore[override]
+    def commands(self) -> MutableMapping[str, click.Command]:
         """Every subcommand (the lazy ones imported now)."""
         for name in list(self._lazy):
             self._load(name)

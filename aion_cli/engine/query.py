@@ -96,6 +96,8 @@ class EntryTable:
         :attr:`descriptors` computes them: ``predict --top 10`` of a map of 10^5 entries
         describes ten."""
         pick: slice | npt.NDArray[np.int64] = slice(None) if rows is None else rows  # views
+        hc: F64 | None
+        hs: F64 | None
         if self.placed is not None:
             hc, hs = self.placed.rows(rows)
         else:
