@@ -91,17 +91,32 @@ class PoolStats:
             timed = False  # no shift: the groups' hourly counts are not needed
         # every entry at once: one sort by group, not one per block (whole numbers: the same
         # sums in any grouping)
-        hourly = group_hourly(state.cnt_profile, rows, groups, n_groups, b) if timed else None
+        hourly = None
+        # a query's counts read narrow (whole numbers) and more entries than a block, with
+        # their counts summed: the groups' counts per (value, hour) give the groups' S and
+        # their directed counts too, exactly (integer sums), not block by block (issue 15)
+        whole = (
+            timed and counts is not None and rows.size > _POOL_BLOCK
+            and state.cnt_profile.dtype.kind == "u"
+        )
+        if whole:
+            every = group_hourly(state.cnt_profile, rows, groups, n_groups, params.values)
+            hourly = np.ascontiguousarray(every[:, :b])
+            s_g, c_g = every.sum(axis=1), hourly.sum(axis=2)
+        elif timed:
+            hourly = group_hourly(state.cnt_profile, rows, groups, n_groups, b)
         directed_blocks = []
         glob = state.glob.profile[0]
         kept = None
         for a in range(0, rows.size, _POOL_BLOCK):
             r, g = rows[a : a + _POOL_BLOCK], groups[a : a + _POOL_BLOCK]
+            w_e = rows_of(state.obs.profile, r) + glob
+            w_g += group_sums(g, n_groups, w_e)
+            if whole:
+                continue
             block = rows_of(state.cnt_profile, r) if totals is None or counts is None else None
             s_e = count_sums(block, 1) if totals is None else totals[a : a + _POOL_BLOCK]
-            w_e = rows_of(state.obs.profile, r) + glob
             s_g += group_sums(g, n_groups, s_e)
-            w_g += group_sums(g, n_groups, w_e)
             directed = (
                 count_sums(block, 2)[:, :b] if counts is None else counts[a : a + _POOL_BLOCK, :b]
             )
