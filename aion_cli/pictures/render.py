@@ -168,6 +168,13 @@ def _series_title(name: str, times: Sequence[int | None], zone: Zone | None) -> 
     return f"{name}: {a.strftime('%a %Y-%m-%d %H:%M')} to {end} {where.name}, {len(times)} times"
 
 
+def path_label(t_ns: int | None) -> str:
+    """The legend's name of the path drawn at ``t_ns``: planned against the flows forecast
+    then, or, as observed (None, which has no time to forecast costs at), the shortest by
+    distance (:func:`aion_cli.exports.planned_path`), which "planned path" had not said."""
+    return "planned path" if t_ns is not None else "shortest path (by distance)"
+
+
 def render_map_png(
     loaded: LoadedMap,
     t_ns: int | None,
@@ -187,7 +194,8 @@ def render_map_png(
     check_png_target(out)
     paths = []
     if path_xyz is not None:
-        paths = [PathLine(np.asarray(path_xyz, dtype=np.float64), "planned path", PATH_GREEN)]
+        xyz = np.asarray(path_xyz, dtype=np.float64)
+        paths = [PathLine(xyz, path_label(t_ns), PATH_GREEN)]
     fig = topdown_figure(
         [scene_at(loaded, t_ns)],
         _name_span(loaded, [t_ns], _mark_unobserved(loaded, [t_ns], [time_title(t_ns, zone)])),
@@ -242,7 +250,7 @@ def export_png(
         scenes.append(first if k == 0 and first is not None else scene_at(loaded, t_ns))
         if ends is not None:
             xyz = np.asarray(planned_path(loaded, t_ns, ends), dtype=np.float64)
-            paths.append([PathLine(xyz, "planned path", PATH_GREEN)])
+            paths.append([PathLine(xyz, path_label(t_ns), PATH_GREEN)])
             # which end is which (the path is planned from one to the other, against the
             # flows it meets): the green line alone did not say
             markers = markers or end_markers(xyz, node_label(ends[1]), node_label(ends[2]))

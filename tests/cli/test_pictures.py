@@ -341,3 +341,21 @@ def test_a_picture_names_what_it_shows_beside_the_map_s_days(
     (said,) = figure_texts(monkeypatch, "plan", sample_map, "--from", "p1", "--to", "p2",
                            "--png", plan)  # fmt: skip
     assert f"after {days}" in said
+
+
+def test_a_historical_path_is_named_the_shortest_by_distance(
+    sample_map: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``export --historical --format png --path-from --path-to`` draws the shortest path by
+    distance (there is no time to forecast costs at; stderr notes it), but the picture's
+    legend called it "planned path", as it calls one planned against the flows at
+    ``--time``; a picture outlives the note beside it. The legend says which it is."""
+    ends = ("--path-from", "p1", "--path-to", "p2", "--format", "png", "-o", tmp_path / "p.png")
+    (observed,) = figure_texts(monkeypatch, "export", sample_map, "--historical", *ends)
+    assert "shortest path (by distance)" in observed
+    assert "planned path" not in observed
+    (at_time,) = figure_texts(
+        monkeypatch, "export", sample_map, "--time", "2026-01-07 08:40", "--tz", "UTC", *ends
+    )
+    assert "planned path" in at_time
+    assert "by distance" not in at_time
