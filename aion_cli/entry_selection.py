@@ -229,7 +229,11 @@ def select(
             _refuse_other_layers(layer, missing, labels, in_map)
             everyone = {str(i) for i in entry_ids(table, np.arange(len(table.xyz)))}
             suggested = suggest(missing) if suggest is not None else None
-            message = f"node {', '.join(missing)} is not in the map"
+            message = (
+                f"node {missing[0]} is not in the map"
+                if len(missing) == 1
+                else f"nodes {', '.join(missing)} are not in the map"
+            )
             if suggested is not None:
                 hint = suggested
             elif layer in ("places", "cells") and set(missing) <= everyone:

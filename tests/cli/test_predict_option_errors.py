@@ -50,3 +50,14 @@ def test_an_entry_of_the_other_layer_is_not_called_missing(
     assert out.exit_code == 2
     assert_one_line_error(out.stderr, f"{entry} is {said} of the map, not on --layer {layer}")
     assert "not in the map" not in out.stderr
+
+
+def test_several_missing_nodes_are_named_in_the_plural(office: Office) -> None:
+    """``--node p98 --node p99`` (neither in the map) said "node p98, p99 is not in the map";
+    one missing node keeps the singular."""
+    two = run("predict", office.map, "--historical", "--node", "p98", "--node", "p99")
+    assert two.exit_code == 2
+    assert_one_line_error(two.stderr, "nodes p98, p99 are not in the map")
+    one = run("predict", office.map, "--historical", "--node", "p98", "--node", "p1")
+    assert one.exit_code == 2
+    assert_one_line_error(one.stderr, "node p98 is not in the map")
