@@ -142,17 +142,20 @@ def point(at: object, what: str = "at") -> str | None:
             raise _not_a_point(at, what)
         return at
     try:
-        values = [real(v, what) for v in at]  # type: ignore[attr-defined]
+        items = list(at)  # type: ignore[call-overload]
     except TypeError:
-        values = []
-    if len(values) not in (2, 3):
+        items = []
+    if len(items) not in (2, 3) or not all(isinstance(v, numbers.Real) for v in items):
+        # not 2 or 3 numbers: an (n, 2) array of points, a pair of pairs
         raise _not_a_point(at, what)
-    return ",".join(repr(v) for v in values)
+    return ",".join(repr(real(v, what)) for v in items)
 
 
 def _not_a_point(at: object, what: str) -> InputError:
+    shape = getattr(at, "shape", None)
+    got = f"an array of shape {shape}" if isinstance(shape, tuple) else repr(at)
     return InputError(
-        f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {at!r}", hint=_point_hint(what)
+        f"{what} must be a point: \"x,y\" or 2 or 3 numbers, got {got}", hint=_point_hint(what)
     )
 
 

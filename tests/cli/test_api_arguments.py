@@ -159,6 +159,9 @@ def test_a_float_of_nanoseconds_is_not_taken_for_seconds() -> None:
         (lambda m: m.predict(T, top=0), "top must be at least 1"),
         (lambda m: m.predict(T, at=[1.0]), "at must be a point"),
         (lambda m: m.predict(T, at=[1.0, float("nan")]), "must be finite"),
+        # before: "at must be a number, got array([0., 0.])" of one row of points
+        (lambda m: m.predict(T, at=np.zeros((2, 2))), r"at must be a point: .*shape \(2, 2\)"),
+        (lambda m: m.plan(((0.0, 1.0), (2.0, 3.0)), "p2"), "start must be a point"),
         # before: "--at expects coordinates x,y[,z]", with the hint 'e.g. --at "3.5,-1.0"'
         (lambda m: m.predict(T, at="1,2,3,4"), "^at must be a point"),
         (lambda m: m.predict_series(T, T, at="kitchen"), "^at must be a point"),
