@@ -187,7 +187,7 @@ def draw_topdown(
             p.style,
             color=p.color,
             linewidth=p.width,
-            label=p.label,
+            label=plain_text(p.label),  # a legend label's $ is not maths
             zorder=7 + k,
             solid_capstyle="round",
         )
@@ -200,7 +200,7 @@ def draw_topdown(
             c=[m.color],
             edgecolors="white",
             linewidths=1.0,
-            label=m.label,
+            label=plain_text(m.label),  # "goal R&D $5 and $10" read as maths: "5and10"
             zorder=20,
         )
     ax.set_xlim(box.x0, box.x1)

@@ -315,6 +315,27 @@ def test_names_with_dollars_are_drawn_as_they_are() -> None:
     assert {"cost$1$.aion", "t$1$", "t$2$", "$lab$"} <= set(shown)
 
 
+def test_legend_labels_with_dollars_are_drawn_as_they_are() -> None:
+    """``aion plan --from kitchen --to "R&D $5 and $10" --png``: the legend's goal read
+    "goal R&D 5and10" (matplotlib read ``$5 and $`` as mathematics), though the title, drawn
+    as plain text, named the room whole; a path's label alike."""
+    from aion_cli.pictures.plan import end_markers
+    from aion_cli.pictures.topdown_panel import PathLine
+
+    xyz = np.array([[0.0, 0.0, 0.0], [2.0, 1.0, 0.0]])
+    markers = end_markers(xyz, "kitchen (p1)", "R&D $5 and $10 (p4)")
+    paths = [[PathLine(xyz, "path $a$", (0.0, 0.7, 0.0))]]
+    fig = topdown_figure([synthetic_scene()], ["t"], paths=paths, markers=markers)
+    fig.canvas.draw()
+    legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]
+    shown = set()
+    for text in (t for legend in legends for t in legend.get_texts()):
+        s, math = text._preprocess_math(text.get_text())
+        assert not math, s
+        shown.add(s)
+    assert {"goal R&D $5 and $10 (p4)", "start kitchen (p1)", "path $a$"} <= shown
+
+
 def test_flow_without_a_heading_does_not_shrink_the_arrows(tmp_path: Path) -> None:
     """Three cells walked +x (flow 5) and one where people stand (flow 300, no heading, so no
     arrow): the arrows' scale is that of the walked cells, whose arrows are full length; with
