@@ -27,6 +27,11 @@ def export_target(format: object, out: Path) -> str:
     ``aion export``); a PNG is refused with the way to it (``Map.picture``)."""
     from aion_cli.exports import export_format
 
+    if format == "png":  # aion export --format png: here a call of its own
+        raise InputError(
+            "format='png' is not an export's: a picture is Map.picture's",
+            hint=f"Map.picture({str(out)!r}, ...) draws the map as a PNG",
+        )
     if format not in FORMATS:
         raise InputError(f"unknown export format {format!r}", hint="ply, pcd, mcap or dsg")
     chosen = export_format(format, out)

@@ -58,6 +58,9 @@ MISUSES: list[tuple[str, Callable[[aion.Map], Any], str]] = [
     ("an unknown zone", lambda m: m.predict(T, tz="Mars/Base"), "Mars/Base"),
     ("a path as a number", lambda m: m.export(3), "path"),  # type: ignore[arg-type]
     ("an unknown export format", lambda m: m.export("x", format="obj"), "obj"),
+    # before: "unknown export format 'png'", hint "ply, pcd, mcap or dsg", though
+    # aion export --format png draws one: the hint names the call that does
+    ("a picture's format", lambda m: m.export("x", format="png"), "Map.picture('x'"),
     ("a keyword the call lacks", lambda m: m.predict(T, node="p1"), "nodes"),  # type: ignore[call-arg]
     ("a keyword by position", lambda m: m.predict(T, "UTC"), "positional"),  # type: ignore[misc]
     ("a map path to Map()", lambda m: aion.Map(str(m.path)), "Map.load"),  # type: ignore[arg-type]
