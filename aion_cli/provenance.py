@@ -5,6 +5,7 @@ of a build are distinct (:func:`distinct_logs`), hashing beside the build where 
 from __future__ import annotations
 
 import hashlib
+import os
 import threading
 from collections import Counter
 from collections.abc import Collection, Mapping, Sequence
@@ -232,10 +233,23 @@ def distinct_logs(
         progress.advance(sizes[i] >> 20)
         seen = first_of.get(entry["sha256"])
         if seen is not None:
-            notes.append(f"{path} is the same log as {seen} (same sha256): it is used once")
+            if not _same_file(path, seen):
+                said = f"is the same log as {seen} (same sha256)"
+            else:  # not "run.mcap is the same log as run.mcap", as of a copy
+                said = "is given twice" if str(path) == seen else f"is {seen} given again"
+            notes.append(f"{path} {said}: it is used once")
             continue
         first_of[entry["sha256"]] = str(path)
         slots.append(entry)
         logs.append(path)
     _refuse_known([e for e in slots if e is not None], known, logs)
     return DistinctLogs(tuple(logs), notes, slots, pending, frozenset(known))
+
+
+def _same_file(path: Path, other: str) -> bool:
+    """Whether ``path`` and ``other`` name one file (the same path, ``./run.mcap`` beside
+    ``run.mcap``, a link to it), not a copy of its bytes."""
+    try:
+        return os.path.samefile(path, other)
+    except OSError:
+        return False

@@ -122,3 +122,19 @@ def test_a_background_hash_error_reaches_the_build(tmp_path: Path) -> None:
     log.unlink()  # removed during the build
     with pytest.raises(InputError, match=r"gone\.mcap is not a regular file"):
         logs.start().entries(NoProgress())
+
+
+def test_a_log_given_twice_is_named_so(tmp_path: Path) -> None:
+    """``aion build run.mcap run.mcap``: the note said "run.mcap is the same log as run.mcap
+    (same sha256)", as of a copy; the same file under two spellings is given twice."""
+    a = _file(tmp_path / "a.mcap", b"a" * 1000)
+    link = tmp_path / "link.mcap"
+    link.symlink_to(a)
+    copy = _file(tmp_path / "copy.mcap", b"a" * 1000)
+    logs = distinct_logs((a, a, link, copy), NoProgress(), {})
+    assert logs.logs == (a,)
+    assert logs.notes == [
+        f"{a} is given twice: it is used once",
+        f"{link} is {a} given again: it is used once",
+        f"{copy} is the same log as {a} (same sha256): it is used once",
+    ]

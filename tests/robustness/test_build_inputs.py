@@ -204,12 +204,14 @@ def test_the_same_log_twice_is_used_once(tmp_path: Path) -> None:
     copy = tmp_path / "copy.mcap"
     shutil.copyfile(log, copy)
     once = build_json(log, "-o", tmp_path / "once.aion")
-    for args, other in [((log, log), log), ((log, copy), copy)]:
+    given = f"{log} is given twice: it is used once"
+    copied = f"{copy} is the same log as {log} (same sha256): it is used once"
+    for args, other, note in [((log, log), log, given), ((log, copy), copy, copied)]:
         out = tmp_path / f"twice_{other.stem}.aion"
         report = build_json(*args, "-o", out)
         assert report["detections"] == once["detections"]
         assert [i["name"] for i in report["inputs"]] == ["a.mcap"]
-        assert f"{other} is the same log as {log} (same sha256): it is used once" in report["notes"]
+        assert note in report["notes"]
         assert_same_arrays(map_arrays(out), map_arrays(tmp_path / "once.aion"))
 
 
