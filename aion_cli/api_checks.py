@@ -122,8 +122,9 @@ def real(value: object, what: str) -> float:
         or not isinstance(value, numbers.Real)
         or type(value).__name__ == "timedelta64"  # numpy's: an Integral to numbers, no float
     ):
-        raise InputError(
-            f"{what} must be a number, got {value!r}", hint="an int or a float, not a string"
+        given = "a string" if isinstance(value, str) else f"a {type(value).__name__}"
+        raise InputError(  # the hint had said "not a string" of True, None or a list too
+            f"{what} must be a number, got {value!r}", hint=f"an int or a float, not {given}"
         )
     out = float(value)
     if not math.isfinite(out):

@@ -255,6 +255,20 @@ def test_cell_ids_as_predict_prints_them_are_read_back() -> None:
         cells.predict(historical=True, nodes=["c123"])
 
 
+def test_a_number_s_hint_names_what_was_given(m: aion.Map) -> None:
+    """``speed=True``, ``at=(True, 1.0)`` or ``speed=[1.2]`` had the hint "an int or a float,
+    not a string"."""
+    for call, given in [
+        (lambda: m.plan("p1", "p2", speed=True), "not a bool"),
+        (lambda: m.predict(T, at=(True, 1.0)), "not a bool"),
+        (lambda: m.plan("p1", "p2", speed=[1.2]), "not a list"),
+        (lambda: m.plan("p1", "p2", speed="1.2"), "not a string"),
+    ]:
+        with pytest.raises(InputError, match="must be a number") as caught:
+            call()
+        assert caught.value.hint == f"an int or a float, {given}"
+
+
 def test_paths_must_be_paths(tmp_path: Path, m: aion.Map) -> None:
     for bad in (None, 3, ["x"], b"x.aion"):
         with pytest.raises(InputError, match="must be a"):
