@@ -23,10 +23,13 @@ FORMATS = (None, "ply", "pcd", "mcap", "dsg")
 
 
 def export_target(format: object, out: Path) -> str:
-    """The format of an export into ``out``: ``format``, else what ``out``'s suffix says (as
-    ``aion export``); a PNG is refused with the way to it (``Map.picture``)."""
+    """The format of an export into ``out``: ``format`` in any case (``"PLY"`` as ``aion
+    export --format PLY``), else what ``out``'s suffix says (as ``aion export``); a PNG is
+    refused with the way to it (``Map.picture``)."""
     from aion_cli.exports import export_format
 
+    if isinstance(format, str):
+        format = format.lower()
     if format == "png":  # aion export --format png: here a call of its own
         raise InputError(
             "format='png' is not an export's: a picture is Map.picture's",

@@ -114,3 +114,15 @@ def test_a_point_s_hint_is_given_as_the_argument_it_was_given_for(m: aion.Map) -
     assert "goal=(3.5, -1.0)" in huge.value.hint
     # and the hint's forms work: the point it shows is read as a point
     assert m.plan((3.5, -1.0), "p2", time=T).nodes[-1] == "p2"
+
+
+def test_an_export_format_in_capitals_is_read_as_the_cli_reads_it(
+    m: aion.Map, tmp_path: Any
+) -> None:
+    """``aion export --format PCD`` takes any case; ``Map.export(format="PCD")`` had refused it
+    as an unknown format. The file written is the one ``format="pcd"`` writes."""
+    lower, upper = tmp_path / "lower.pcd", tmp_path / "upper.pcd"
+    m.export(lower, time=T, format="pcd")
+    m.export(upper, time=T, format="PCD")
+    assert upper.read_bytes() == lower.read_bytes()
+    assert upper.read_bytes().startswith(b"# .PCD")
