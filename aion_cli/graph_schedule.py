@@ -50,8 +50,9 @@ def parse_period_ns(text: str) -> int:
     """A duration as the CLI's other durations are written (``5s``, ``1m``, ``1m30s``,
     ``500ms``, ``2.5``: seconds without a unit) -> integer nanoseconds, exactly (decimal
     arithmetic). Negative, unreadable or longer than a year: a one-line error (exit 2)."""
-    from aion_cli.timeparse import TimeFormatError
+    from aion_cli.timeparse import TimeFormatError, refuse_capital_m
 
+    refuse_capital_m(text, "--graph-period")
     hint = "e.g. --graph-period 5s, 1m, 500ms or 0 (every graph)"
     token = text.strip().lower().replace(" ", "")
     total: Decimal

@@ -18,6 +18,7 @@ from aion_cli.timeparse import (
     RE_REL_PART,
     UNITS_S,
     TimeFormatError,
+    refuse_capital_m,
     to_ns,
 )
 
@@ -55,6 +56,7 @@ def parse_step(step: str | float, option: str = "--step") -> Step:
     name = option if isinstance(step, str) or api else "step"
     hint = "e.g. step='1h', '30m', '600s', '1d' or 600 (seconds)" if api else _STEP_HINT
     if isinstance(step, str):
+        refuse_capital_m(step, name)
         token = step.strip().lower()
         if token.startswith("-"):  # a length has no sign; "-1h" read as unreadable text
             raise TimeFormatError(

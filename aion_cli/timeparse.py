@@ -91,6 +91,22 @@ class TimeFormatError(InputError):
     """A time or time-zone string the user typed cannot be understood."""
 
 
+_RE_CAPITAL_M = re.compile(r"\d\s*M(?![A-Za-z])")
+
+
+def refuse_capital_m(text: str, what: str = "") -> None:
+    """A length written with a capital ``M`` (``1M``, ``now-1M``): every duration aion reads
+    ignores case, so it would be a minute, where the writer most likely meant a month (a unit
+    aion has not). :class:`TimeFormatError` naming ``what`` (an option, or nothing where the
+    caller names it) and the ways to write either."""
+    if _RE_CAPITAL_M.search(text):
+        named = f"{what} {text!r}" if what else repr(text)
+        raise TimeFormatError(
+            f"a capital M in {named} would read as minutes, not months",
+            "write minutes as m or min (10m); months have no unit here: write days (30d)",
+        )
+
+
 # -- zones -------------------------------------------------------------------------------------
 def local_zone() -> Zone:
     """The machine's local zone: ``$TZ``, else /etc/localtime, else the C library's offset."""
@@ -223,6 +239,7 @@ def parse_time(
     ``start`` (aware): the start of the span ``text`` ends, which a clock alone, a day word or
     ``+2h`` counts from instead; ``now`` (``now+2h``) is still the current time."""
     raw = text
+    refuse_capital_m(text)
     whole = " ".join(text.strip().split())
     text, zone = _split_zone(whole, zone)
     named = len(text) < len(whole)  # a zone named after the time
