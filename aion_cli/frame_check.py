@@ -248,13 +248,15 @@ def first_of_each(logset: Any, topics: list[str], n: int) -> dict[str, list[Any]
     return out
 
 
-def tf_root(logset: Any) -> str | None:
+def tf_root(logset: Any) -> tuple[str | None, bool]:
     """The one frame at the top of the log's TF tree (its first :data:`TF_SAMPLE` messages per
     TF topic), as ``--suggest-mapping`` offers for ``frame_override``: turtlesim's ``world``;
-    None without TF, or when its frames hang from more than one root."""
+    None without TF, or when its frames hang from more than one root. Beside it, whether the
+    tree holds the frame ``map`` (a build's default ``--map-frame``, which TF must join to
+    the detections' frame)."""
     from aion_cli.formats.tf_tree import root
     from aion_cli.topics import select_topics
 
     tf, _ = _tf_sample(logset, select_topics(logset.topics))
     tops = {root(tf.edges, f) for f in tf.frames}
-    return tops.pop() if len(tops) == 1 else None
+    return (tops.pop() if len(tops) == 1 else None), "map" in tf.frames

@@ -250,9 +250,12 @@ def suggest(paths: list[Path], log_format: str | None, topic: str) -> str:
         refuse_service_events(info.topic, info.msgtype)
         refuse_not_people(logset, info)  # TF, a scene graph, images, point clouds
         store = logset.typestore(info.topic, info.msgtype, info.encoding)
-        frame = tf_root(logset) or "map"  # the frame a frame_override would name
+        top, has_map = tf_root(logset)
+        frame = top or "map"  # the frame a frame_override would name
         sample = _sample(logset, info.topic)
-        return suggest_mapping(info.topic, info.msgtype, store, sample, frame)
+        # a root TF joins to no frame 'map': the build must be told the map is in the root
+        map_frame = top if top is not None and not has_map else None
+        return suggest_mapping(info.topic, info.msgtype, store, sample, frame, map_frame)
 
 
 #: messages ``--suggest-mapping`` decodes to tell ids that number a message's items

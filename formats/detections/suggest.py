@@ -266,6 +266,21 @@ def _toml_string(value: str) -> str:
     return '"' + _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", out) + '"'
 
 
+def _build_command(map_frame: str | None) -> list[str]:
+    """The suggestion's comment lines naming the build that reads it: with ``--map-frame``
+    when the positions' frame is a TF root that joins no frame ``map`` (without it, the build
+    stops with "unknown frame 'map'")."""
+    if map_frame is None:
+        return ["#   aion build LOG --detections-mapping THIS_FILE"]
+    import shlex
+
+    frame = _comment(map_frame)
+    return [
+        f"#   aion build LOG --detections-mapping THIS_FILE --map-frame {shlex.quote(frame)}",
+        f"#     (the log's TF joins {frame} to no frame 'map', the map's frame by default)",
+    ]
+
+
 def _comment(text: str) -> str:
     """``text`` fit for a TOML comment: control characters (newlines included) escaped."""
     return _CONTROL.sub(lambda m: f"\\u{ord(m.group()):04x}", text)
@@ -333,12 +348,15 @@ def suggest_mapping(
     store: Typestore,
     sample: list[Any] | None = None,
     frame: str = "map",
+    map_frame: str | None = None,
 ) -> str:
     """A TOML mapping for ``topic`` carrying ``msgtype`` as ``store`` defines it (see the
     module docstring); :class:`ConfigError` when the type holds nothing usable as a
     position. ``sample``: a few decoded messages of the topic; when the chosen id numbers
     the elements of each (:func:`counts_items`), no id is suggested. ``frame``: the
-    ``frame_override`` suggested (the log's TF root where it has one)."""
+    ``frame_override`` suggested (the log's TF root where it has one). ``map_frame``: the
+    ``--map-frame`` the build command it names needs when the positions are in ``frame``
+    (a TF root that joins no frame ``map``: turtlesim's ``world``)."""
     name = normalize_msgtype(msgtype)
     if name not in store.fielddefs:
         raise ConfigError(f"{topic}: the log has no definition of {name}")
@@ -373,10 +391,11 @@ def suggest_mapping(
     own = array is not None and not item_header
     item_stamp = own_stamp(store, item) if own else None
     item_frame = own_frame(store, item) if own else None
+    overridden = not header and not item_header and not item_frame  # frame_override needed
     lines = [
         f"# aion detections mapping for {_comment(topic)} ({name}),",
         "# suggested from the log's own definition of the type. Check the fields, then:",
-        "#   aion build LOG --detections-mapping THIS_FILE",
+        *_build_command(map_frame if overridden and map_frame == frame else None),
         '# Format: README, "People detections"; paths are relative to one element of `array`.',
         "",
         "[[topic]]",
@@ -427,7 +446,7 @@ def suggest_mapping(
         lines.append(_line("item_stamp", item_stamp, "each element's own time"))
     if item_frame:
         lines.append(_line("item_frame", item_frame, "each element's own frame"))
-    if not header and not item_header and not item_frame:
+    if overridden:
         if not item_stamp:
             lines.append("# no header: detections take their message's log time")
         lines.append(
