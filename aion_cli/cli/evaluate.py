@@ -27,7 +27,12 @@ from aion_cli.cli.evaluate_columns import (
     SCORE_COLUMNS,
     TABLE_I_COLUMNS,
 )
-from aion_cli.cli.evaluate_data import DATA_DEFAULT_TEXT, data_folder, existing_dir
+from aion_cli.cli.evaluate_data import (
+    DATA_DEFAULT_TEXT,
+    data_default_text,
+    data_folder,
+    existing_dir,
+)
 from aion_cli.cli.output import Column, emit, format_option, num
 
 OFFICE_MAX_DAYS = 34
@@ -74,7 +79,7 @@ def evaluate() -> None:
     metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
-    show_default=DATA_DEFAULT_TEXT + "/atc",
+    show_default=data_default_text("atc"),
     help="Folder with atc-1024-H_{train,test}.csv.",
 )
 @click.option(
@@ -125,7 +130,7 @@ def atc(
     metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
-    show_default=DATA_DEFAULT_TEXT + "/fremen_door",
+    show_default=data_default_text("fremen_door"),
     help="Folder with training_data.txt and test_{times,data}_k.txt.",
 )
 @format_option(("table", "json"))
@@ -166,7 +171,7 @@ def door(data_dir: Path | None, fmt: str) -> None:
     metavar="DIR",
     type=AionPath(path_type=Path),
     default=None,
-    show_default=DATA_DEFAULT_TEXT + "/lincoln",
+    show_default=data_default_text("lincoln"),
     help="Folder with the Lincoln corridor files (2017-*.txt, 2017-05-31_heading.csv).",
 )
 @click.option("--radius", type=float, default=1.0, show_default=True,

@@ -11,6 +11,13 @@ DATA_ENV = "AION_SHARED_DATA"
 DATA_DEFAULT_TEXT = f"${DATA_ENV}, else ../shared/data"
 
 
+def data_default_text(sub: str) -> str:
+    """``--data``'s default in a command's help: the dataset's folder ``sub`` inside the shared
+    data folder, whichever it is (the text had read "$AION_SHARED_DATA, else
+    ../shared/data/lincoln", as if the variable named the dataset's own folder)."""
+    return f"${DATA_ENV}/{sub}, else ../shared/data/{sub}"
+
+
 def shared_data() -> Path:
     """The shared data folder: ``$AION_SHARED_DATA``, else ``../shared/data`` from the current
     folder (beside a checkout), else ``shared/data`` beside the checkout aion runs from (so

@@ -360,3 +360,25 @@ def test_office_json_gives_counts_as_integers() -> None:
     assert predicted["mean_cells"] > 0
     assert not re.search(r'"(places_compared|places_seen_all_day|places|cells)": \d+\.0\b',
                          result.stdout)
+
+
+@pytest.mark.parametrize(
+    ("command", "folder"), [("atc", "atc"), ("door", "fremen_door"), ("lincoln", "lincoln")]
+)
+def test_the_data_default_in_help_is_the_folder_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str, folder: str
+) -> None:
+    """--data's default as --help gives it, $AION_SHARED_DATA put in, is the folder the command
+    reads (its refusal names it): the help had read "($AION_SHARED_DATA, else
+    ../shared/data/lincoln)", as if the variable named the dataset's own folder."""
+    shared = tmp_path / "data"
+    monkeypatch.setenv("AION_SHARED_DATA", str(shared))
+    runner = CliRunner()
+    helped = " ".join(runner.invoke(cli, ["evaluate", command, "--help"]).stdout.split())
+    default = re.search(r"--data DIR .*?\[default: \((\S+), else", helped)
+    assert default is not None, helped
+    said = Path(default.group(1).replace("$AION_SHARED_DATA", str(shared)))
+    result = runner.invoke(cli, ["evaluate", command])
+    assert result.exit_code == 2
+    assert f"folder not found: {said}\n" in result.stderr
+    assert said == shared / folder
