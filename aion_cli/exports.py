@@ -128,7 +128,38 @@ def check_out_dir(out_dir: Path) -> None:
             f"{out_dir} is a dangling symbolic link (to {os.readlink(out_dir)}), not a folder",
             hint="make the folder it points to, remove the link, or give another folder",
         )
+    if not out_dir.exists():
+        refuse_file_name(out_dir)
     check_output_folder(out_dir)
+
+
+#: suffixes of files aion reads or writes, and of a map: a new folder named so is a slip that
+#: shows only later (``aion report MAP -o report.html`` made report.html/index.html, ``aion
+#: export MAP -o map.jpg`` a folder of PLY files named map.jpg)
+PICTURE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".svg", ".pdf"})
+
+
+def refuse_file_name(out_dir: Path) -> None:
+    """Refuse (:class:`OutputPathError`) the new folder ``out_dir`` when its name ends in the
+    suffix of a kind of file (:data:`formats.mapfile_target.OTHER_SUFFIXES`, ``.aion``,
+    ``.txt``, ``.zip``): the files would be written into a folder that looks like one file.
+    An existing folder so named is the user's and is written into."""
+    from aion_cli.formats.mapfile_target import OTHER_SUFFIXES
+    from aion_cli.formats.outputs import OutputPathError
+
+    suffix = out_dir.suffix.lower()
+    if suffix not in OTHER_SUFFIXES | {".aion", ".txt", ".zip"}:
+        return
+    bare = out_dir.with_suffix("")
+    picture = (
+        f"a picture: --format png -o {bare.name}.png (aion export); "
+        if suffix in PICTURE_SUFFIXES else ""
+    )  # fmt: skip
+    raise OutputPathError(
+        f"{out_dir} would be a new folder named as a {suffix} file: the files are written "
+        "into a folder",
+        hint=f"{picture}name the folder without {suffix}, e.g. {bare}/",
+    )
 
 
 def frame_name(t_ns: int | None) -> str:

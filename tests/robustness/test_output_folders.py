@@ -65,3 +65,28 @@ def test_an_output_that_is_a_folder_is_made_in_an_existing_one(
     assert len(made) == 1
     assert made[0].is_dir()
     assert any(made[0].iterdir())
+
+
+@pytest.mark.parametrize(
+    ("command", "name"),
+    [("report", "report.html"), ("export DIR", "map.jpg"), ("export DIR", "scene.aion"),
+     ("report", "site.aion")],
+)  # fmt: skip
+def test_a_new_output_folder_named_as_a_file_is_refused(
+    office: Office, tmp_path: Path, command: str, name: str
+) -> None:
+    """``report -o report.html`` wrote report.html/index.html (a folder a browser is given
+    as a page), ``export -o map.jpg`` a folder of PLY files named as a picture: refused, the
+    name without the suffix as hint, nothing made. A folder already so named is written into."""
+    template = (*WRITERS[command][:-1], "{out}")  # -o the folder itself
+    out = tmp_path / name
+    result = run(*_args(template, office, tmp_path / "none.csv", out))
+    bare = out.with_suffix("")
+    fails(result, f"{out} would be a new folder named as a {out.suffix} file")
+    assert f"e.g. {bare}/" in result.stderr
+    assert not out.exists()
+    assert not bare.exists()
+    out.mkdir()  # the user's own folder of that name
+    again = run(*_args(template, office, tmp_path / "none.csv", out))
+    assert again.exit_code == 0, again.stderr
+    assert any(out.iterdir())

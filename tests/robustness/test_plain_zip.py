@@ -31,7 +31,7 @@ def plain(tmp_path: Path) -> Path:
         ["info", "{zip}"],
         ["predict", "{zip}"],
         ["export", "{zip}", "-o", "{tmp}/x.json"],
-        ["report", "{zip}", "-o", "{tmp}/r.html"],
+        ["report", "{zip}", "-o", "{tmp}/r"],
         ["merge", "{zip}", "{tmp}/other.zip", "-o", "{tmp}/m.aion"],
         ["build", "{log}", "--map", "{zip}", "-o", "{tmp}/b.aion"],
         ["build", "{zip}", "-o", "{tmp}/c.aion"],
