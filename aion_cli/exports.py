@@ -142,13 +142,14 @@ PICTURE_SUFFIXES = frozenset({".png", ".jpg", ".jpeg", ".svg", ".pdf"})
 def refuse_file_name(out_dir: Path) -> None:
     """Refuse (:class:`OutputPathError`) the new folder ``out_dir`` when its name ends in the
     suffix of a kind of file (:data:`formats.mapfile_target.OTHER_SUFFIXES`, ``.aion``,
-    ``.txt``, ``.zip``): the files would be written into a folder that looks like one file.
+    ``.txt``, ``.zip``, ``.md``): the files would be written into a folder that looks like one
+    file (``aion evaluate report -o report.md`` as well).
     An existing folder so named is the user's and is written into."""
     from aion_cli.formats.mapfile_target import OTHER_SUFFIXES
     from aion_cli.formats.outputs import OutputPathError
 
     suffix = out_dir.suffix.lower()
-    if suffix not in OTHER_SUFFIXES | {".aion", ".txt", ".zip"}:
+    if suffix not in OTHER_SUFFIXES | {".aion", ".txt", ".zip", ".md"}:
         return
     bare = out_dir.with_suffix("")
     picture = (

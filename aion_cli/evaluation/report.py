@@ -217,6 +217,10 @@ def write_report(
                          hint=f"leave out at least one --skip of {', '.join(sections)}")
     if not (math.isfinite(days) and days > 0):
         raise InputError(f"--days must be a positive number, got {days!r}")
+    if not out_dir.exists():  # -o report.md: the folder would look like the page
+        from aion_cli.exports import refuse_file_name
+
+        refuse_file_name(out_dir)
     wanted = {"atc": "atc", "lincoln": "lincoln", "door": "fremen_door"}
     for section, folder in wanted.items():  # before anything runs or is written
         if section not in skip and not (data_dir / folder).is_dir():

@@ -90,3 +90,13 @@ def test_a_new_output_folder_named_as_a_file_is_refused(
     again = run(*_args(template, office, tmp_path / "none.csv", out))
     assert again.exit_code == 0, again.stderr
     assert any(out.iterdir())
+
+
+def test_evaluate_report_refuses_a_new_folder_named_as_its_page(tmp_path: Path) -> None:
+    """``aion evaluate report -o report.md`` made a folder report.md holding report.md."""
+    out = tmp_path / "report.md"
+    result = run("evaluate", "report", "-o", out, "--data", tmp_path / "none",
+                 "--skip", "office", "--skip", "atc", "--skip", "lincoln")  # fmt: skip
+    fails(result, f"{out} would be a new folder named as a .md file")
+    assert f"e.g. {tmp_path / 'report'}/" in result.stderr
+    assert not out.exists()
