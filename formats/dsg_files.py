@@ -143,6 +143,25 @@ def check_graph_path(p: Path, error: type[InputError] = GraphFileError) -> None:
         raise error(f"scene-graph file not found: {p}", hint="check the path")
 
 
+def _other_file_hint(p: Path, suffix: str) -> str:
+    """The hint for a scene-graph file of another kind: an aion map or a log given where a
+    graph file goes (``--graph office.aion``) is told where its graph comes from."""
+    saved = "Hydra saves graphs as dsg.json, dsg_with_mesh.json or .sparkdsg"
+    import shlex
+
+    if suffix == ".aion":
+        return (
+            f"{p.name} is an aion map: `aion export {shlex.quote(str(p))} --format dsg -o "
+            f"graph.json` writes its scene graph as a graph file ({saved})"
+        )
+    if suffix in (".mcap", ".bag", ".db3"):
+        return (
+            f"{p.name} is a log: aion build reads the scene graphs of the logs it is given "
+            f"(LOG...); a graph file is what Hydra saved ({saved})"
+        )
+    return saved
+
+
 def read_dsg_file(path: str | Path) -> GraphFile:
     """Read a spark_dsg graph file (``.json``, ``.bson``, ``.sparkdsg``), with clear errors.
 
@@ -158,7 +177,7 @@ def read_dsg_file(path: str | Path) -> GraphFile:
     if suffix not in (".json", ".bson", ".sparkdsg"):
         raise GraphFileError(
             f"unsupported scene-graph file extension {p.suffix!r}: {p}",
-            hint="Hydra saves graphs as dsg.json, dsg_with_mesh.json or .sparkdsg",
+            hint=_other_file_hint(p, suffix),
         )
     size = p.stat().st_size
     if size == 0:

@@ -270,3 +270,29 @@ def test_partial_update_chosen_for_its_period_gives_way_to_a_whole_graph(tmp_pat
     assert sorted(maps[0]) == sorted(maps[1])
     for name in maps[0]:
         np.testing.assert_array_equal(maps[0][name], maps[1][name], err_msg=name)
+
+
+def test_a_map_or_a_log_given_as_the_graph_file_is_told_where_its_graph_comes_from(
+    office: Office, tmp_path: Path
+) -> None:
+    """``--graph office.aion`` was refused with "Hydra saves graphs as dsg.json ..." alone:
+    the hint now gives the export that writes the map's graph, which the build then takes
+    (the map's places, every one); a log given so is told the build reads its graphs."""
+    import shlex
+
+    refused = run("build", office.log, "--graph", office.map, "-o", tmp_path / "x.aion")
+    assert refused.exit_code == 2
+    assert_one_line_error(refused.stderr, "unsupported scene-graph file extension '.aion'")
+    (command,) = [line for line in refused.stderr.splitlines() if line.startswith("hint:")]
+    words = shlex.split(command.split("`")[1])
+    assert words[:2] == ["aion", "export"]
+    graph = tmp_path / "graph.json"
+    exported = run(*[str(graph) if w == "graph.json" else w for w in words[1:]])
+    assert exported.exit_code == 0, exported.stderr
+    built = run_json("build", office.log, "--graph", graph, "-o", tmp_path / "y.aion",
+                     "--format", "json")  # fmt: skip
+    assert built["graph"]["source"] == "file graph.json"
+    assert built["nodes"] == office.build["nodes"] == len(PLACES)
+    as_log = run("build", office.log, "--graph", office.log, "-o", tmp_path / "z.aion")
+    assert as_log.exit_code == 2
+    assert f"{office.log.name} is a log: aion build reads the scene graphs" in as_log.stderr
