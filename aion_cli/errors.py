@@ -137,6 +137,10 @@ class MapCorruptError(MapFileError):
     """A map member fails its checksum or cannot be parsed."""
 
 
+MAP_REBUILD_HINT = "the map was damaged or not written by aion; rebuild it with `aion build`"
+"""The hint of a map whose members pass their checksums but do not make a valid state."""
+
+
 class MapVersionError(MapFileError):
     """A map file was written by a newer, incompatible aion."""
 

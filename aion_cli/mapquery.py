@@ -9,6 +9,7 @@ an entry table to ``formats.export``.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -66,7 +67,7 @@ def load_map(
 
     path = Path(path)  # a str from a script reads as its path
     check_map_input(path)
-    with open_map(path, in_place=not writable) as members:
+    with open_map(path, in_place=not writable) as members, invalid_state_named(path):
         manifest = members.manifest
         meta = _state_meta(path, manifest)
         query_only = query_only_of(manifest)
@@ -106,7 +107,7 @@ def load_map_head(path: Path | str) -> MapHead:
 
     path = Path(path)
     check_map_input(path)
-    with open_map(path) as members:
+    with open_map(path) as members, invalid_state_named(path):
         manifest = members.manifest
         meta = _state_meta(path, manifest)
         head = parse_state_meta(meta)
@@ -118,6 +119,27 @@ def load_map_head(path: Path | str) -> MapHead:
         graph = None  # as latest_graph
     part = meta.get("deferred") is not None
     return MapHead(manifest, graph, head.config, head.open_window, head.accepted, part)
+
+
+@contextmanager
+def invalid_state_named(path: Path) -> Iterator[None]:
+    """A map whose members pass their checksums but do not make a valid state (a value,
+    dtype or shape the state's readers refuse: ``MapState.from_arrays``) reported with the
+    map's path and the hint ``check_loaded``'s refusals give, as the file checks report a
+    damaged member: the engine's :class:`~aion_cli.errors.MapCorruptError` names the member
+    alone and has no hint (the command line printed ``error: map member forecast_priors
+    holds [...]`` and nothing more, not saying which map of a merge)."""
+    from aion_cli.errors import MAP_REBUILD_HINT, MapCorruptError
+
+    try:
+        yield
+    except MapCorruptError as exc:
+        if exc.hint is None:
+            if str(path) not in exc.message:
+                exc.message = f"map {path} is invalid: {exc.message}"
+                exc.args = (exc.message, *exc.args[1:])
+            exc.hint = MAP_REBUILD_HINT
+        raise
 
 
 def check_map_input(path: Path) -> None:

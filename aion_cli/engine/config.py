@@ -358,19 +358,19 @@ class ModelConfig:
         """The config a map stored (its manifest's ``state.config``), validated like a config
         file; any fault is a :class:`~aion_cli.errors.MapCorruptError` naming it (a map
         with a 1e-6 s window or a 10^6-bin profile never reaches the engine)."""
-        from aion_cli.errors import MapCorruptError
+        from aion_cli.errors import MAP_REBUILD_HINT, MapCorruptError
 
         if not isinstance(data, dict):
             raise MapCorruptError(
                 f"the map's stored model configuration is not an object: {data!r:.80}",
-                hint="the map was damaged or not written by aion; rebuild it with `aion build`",
+                hint=MAP_REBUILD_HINT,
             )
         try:
             return cls.from_dict(stored_config(data))
         except ConfigError as exc:
             raise MapCorruptError(
                 f"the map's stored model configuration is invalid: {exc.message}",
-                hint="the map was damaged or not written by aion; rebuild it with `aion build`",
+                hint=MAP_REBUILD_HINT,
             ) from exc
 
     def to_dict(self) -> dict[str, Any]:

@@ -19,7 +19,7 @@ from aion_cli.engine.entries import ADDITIVE, CELL, HEADING_SUMS, NODE
 from aion_cli.engine.grouping import contained
 from aion_cli.engine.temporal.stored_layout import all_finite
 from aion_cli.engine.types import GraphSnapshot
-from aion_cli.errors import MapCorruptError, MapFileError, MapVersionError
+from aion_cli.errors import MAP_REBUILD_HINT, MapCorruptError, MapFileError, MapVersionError
 
 if TYPE_CHECKING:
     from aion_cli.engine.config import ModelConfig
@@ -186,7 +186,7 @@ def check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
         raise MapCorruptError(
             f"map state is inconsistent: {'; '.join(problems[:3])}"
             + (f" and {len(problems) - 3} more" if len(problems) > 3 else ""),
-            hint="the map was damaged or not written by aion; rebuild it with `aion build`",
+            hint=MAP_REBUILD_HINT,
         )
 
 
