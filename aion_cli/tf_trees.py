@@ -65,8 +65,8 @@ def own_tf_buffers(logset: Any, plan: TopicPlan) -> dict[int, TfBuffer]:
 
 def overlapping(spans: dict[int, tuple[int, int]]) -> list[int]:
     """The keys of ``spans`` (first and last message time) whose span overlaps another's
-    (sharing more than an instant), sorted: those whose group of :func:`overlap_groups`
-    holds another."""
+    (each starts before the other ends), sorted: those whose group of
+    :func:`overlap_groups` holds another."""
     groups = overlap_groups(spans)
     if len(groups) < 2:
         return []
@@ -76,9 +76,12 @@ def overlapping(spans: dict[int, tuple[int, int]]) -> list[int]:
 
 def overlap_groups(spans: dict[int, tuple[int, int]]) -> dict[int, int]:
     """Per key of ``spans`` (first and last message time), its group's index in time order:
-    spans that overlap (sharing more than an instant) directly or through others are one
-    group, a span that overlaps none a group of its own. Sorted by start, a span starts a
-    group when it starts at or after the latest end before it (a span overlaps an earlier
+    spans that overlap (each starts before the other ends: they share more than an instant,
+    or one is a single instant strictly inside the other, a recording of one message while
+    another records; spans that only touch do not) directly or through others are one
+    group, a span that overlaps none a group of its own (equal one-instant spans are each
+    their own, numbered in the order given). Sorted by start, a span starts a group when
+    it starts at or after the latest end before it (a span overlaps an earlier
     one when it starts before that end, and a later one when the next start comes before
     its end). Python integers, one step per recording: log times are MCAP's uint64, and one
     past 2^63 (a damaged or far-future time, which the build drops and names) must not
