@@ -12,7 +12,7 @@ The mutants come from ``fuzz_mutate.py`` (random bytes: targets ``logs``, ``dete
 value: targets ``log_fields``, ``payload_fields``, ``map_values``); the mutators the tests use
 are importable from here too. ``log_fields`` mutants also go through the command line
 (``aion build`` and ``aion info`` in-process: exit 0 or 2 only), and a ``map_values`` mutant
-that loads must give finite, non-negative historical flows.
+that loads must give finite, non-negative historical flows and forecasts.
 
 A subprocess, because a mutant may make a C++ reader (spark_dsg) allocate without bound: the
 worker runs under an address-space limit, so that becomes a MemoryError (which aion must turn
@@ -161,15 +161,33 @@ def _cli(*commands: list[Any]) -> int:
 
 
 def _query_map(path: Path) -> int:
-    """``load_map`` and the historical table of a map: flows must be finite and >= 0."""
+    """``load_map``, the historical table and the forecasts of a map: flows must be finite and
+    >= 0, and so must the forecast flows and variances at the map's last log time and a week
+    later, each entry's direction histogram summing to 1 (a mutated ``forecast_priors`` or
+    ``temporal_week_sums`` that loads must not give a broken forecast)."""
     from aion_cli.engine.query import historical_table
     from aion_cli.mapquery import load_map
+    from aion_cli.timeparse import MAX_TIME_NS
 
     state = load_map(path).state
     table = historical_table(state)
     flow = np.asarray(table.flow, dtype=np.float64)
     if flow.size and not (np.isfinite(flow).all() and flow.min() >= 0):
         raise ValueError(f"a map that loads gave flows {flow.min()} .. {flow.max()}")
+    rows, predictor = state.predictor()
+    if rows.size and state.log_time_ns is not None:
+        week = 7 * 86_400 * 10**9  # a query's times are bounded (--time): 1900 .. 2261
+        last = min(max(state.log_time_ns, 0), MAX_TIME_NS - week)
+        for t_ns in (last, last + week):
+            pred = predictor.at(t_ns)
+            for name in ("flow", "variance"):
+                values = np.asarray(getattr(pred, name), np.float64)
+                if not (np.isfinite(values).all() and values.min() >= 0):
+                    raise ValueError(f"a map that loads forecast {name} {values.min()} .. "
+                                     f"{values.max()}")  # fmt: skip
+            probs = np.asarray(pred.probabilities, np.float64)
+            if not (np.isfinite(probs).all() and np.abs(probs.sum(axis=1) - 1).max() < 1e-9):
+                raise ValueError("a map that loads forecast direction histograms not summing to 1")
     return len(table)
 
 
