@@ -61,7 +61,11 @@ BUDGET = {
 
 @pytest.fixture(scope="module")
 def seeds(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[Path]]:
-    """Small valid inputs: one log per container (people, TF, a scene graph) and a map."""
+    """Small valid inputs: one log per container (people, TF, a scene graph), a map of it, and
+    a map of two days (a closed day: the week sums of format 2.2; a pending one: provisional
+    scores), so that the map targets mutate every member a map can hold."""
+    from tests.cli.logdata import write_office_log
+
     folder = tmp_path_factory.mktemp("fuzz_seeds")
     msgs = sorted(
         [
@@ -73,7 +77,11 @@ def seeds(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[Path]]:
     )
     logs = [write_log(folder / name, msgs, c) for name, c in LOG_CONTAINERS.items()]
     build_json(logs[0], "-o", folder / "m.aion")
-    return {"logs": logs, "maps": [folder / "m.aion"]}
+    days = [folder / "day0.mcap", folder / "day1.mcap"]
+    for k, day in enumerate(days):
+        write_office_log(day, shift_s=k * 86_400, duration_s=2 * 3600)
+    build_json(*days, "-o", folder / "days.aion")
+    return {"logs": logs, "maps": [folder / "m.aion", folder / "days.aion"]}
 
 
 def fuzz(target: str, seed: int, cases: int, files: list[Path]) -> dict[str, Any]:
