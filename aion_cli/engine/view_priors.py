@@ -73,8 +73,11 @@ def absorbed(
         own, slot, _ = part.own_pairs()
         rows.append(own)
         seen.append(own * h + bins[slot])
+    # not made unique: a cell listed twice is saved twice with the same value and put back
+    # twice with it (``np.unique`` of a day's 373,281 cells cost 0.27 s of CPU at 10^5
+    # entries, a quarter of the priors' write; stop 70)
     count_cells, own_rows, own_cells = (
-        np.unique(np.concatenate(c)).astype(np.int64) for c in (cells, rows, seen)
+        np.concatenate(c).astype(np.int64) for c in (cells, rows, seen)
     )
     counts, obs, glob = t.cnt_profile, t.obs, t.glob
     flat_counts, flat_profile = _flat(counts), _flat(obs.profile)
