@@ -45,10 +45,21 @@ from aion_cli.formats.outputs import fsync_dir, staging_prefix
 
 class _HashingWriter:
     """A write-only file object that feeds a zip member, a sha256 and a CRC-32 at once (no
-    extra copy)."""
+    extra copy).
 
-    def __init__(self, sink: IO[bytes]) -> None:
-        self.sink = sink
+    The bytes go straight to the zip's file and the member is handed their CRC-32 and size
+    by :meth:`finish`: ``zipfile``'s member would compute a CRC-32 of every byte a second
+    time, with ``zlib.crc32`` at a quarter of :func:`~aion_cli.formats.crc.crc32`'s speed
+    (0.4 s of CPU of a 10^5-entry map's write, stop 70). A member without the attributes
+    this hands over (another ``zipfile`` than CPython 3.11-3.13's) is written through, as
+    before. The zip's CRC-32 of every member is checked in tests (``ZipFile.testzip``)."""
+
+    def __init__(self, member: Any) -> None:  # zipfile's member writer (``zf.open(.., "w")``)
+        self.member = member
+        self.direct = all(hasattr(member, a) for a in _MEMBER_STATE) and (
+            getattr(member, "_compressor", True) is None  # a stored member's
+        )
+        self.sink: IO[bytes] = self.member._fileobj if self.direct else member
         self.sha = hashlib.sha256()
         self.crc = 0
         self.size = 0
@@ -57,8 +68,19 @@ class _HashingWriter:
         self.sha.update(data)
         self.crc = crc32(data, self.crc)
         self.sink.write(data)
-        self.size += len(data)
-        return len(data)
+        size = memoryview(data).nbytes
+        self.size += size
+        return size
+
+    def finish(self) -> None:
+        """Hand the member what it would have counted (before it is closed)."""
+        if self.direct:
+            self.member._crc = self.crc
+            self.member._file_size = self.size
+
+
+_MEMBER_STATE = ("_fileobj", "_crc", "_file_size")
+"""What :class:`_HashingWriter` uses of ``zipfile``'s member writer (``_ZipWriteFile``)."""
 
 
 def _is_blocks(arr: Any) -> bool:
@@ -143,8 +165,9 @@ def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> 
                         "shape": tuple(arr.shape),
                     }
                     np.lib.format.write_array_header_1_0(writer, header)
-                    for block in arr.blocks():
-                        writer.write(block.tobytes())
+                    for block in arr.blocks():  # its bytes as they are: no copy
+                        writer.write(block.reshape(-1).view(np.uint8).data)
+                writer.finish()
             members[name] = {
                 "sha256": writer.sha.hexdigest(),
                 "crc32": f"{writer.crc:08x}",
