@@ -32,22 +32,17 @@ class Pairs:
 
 
 def nonzero_pairs(flat_profile: F64, rows: I64, values: int) -> Pairs:
-    """The (entry, value bin) pairs of ``rows`` whose profile counts are not all zero, found
-    block by block (bounded temporaries)."""
-    positions, state_rows = [], []
-    v = np.arange(values, dtype=np.int64)
-    for a in range(0, rows.size, ROW_BLOCK):
-        r = rows[a : a + ROW_BLOCK]
-        flat = (r[:, None] * values + v[None, :]).reshape(-1)
-        keep = flat_profile[flat].any(axis=1)
-        pos = ((a + np.arange(r.size))[:, None] * values + v[None, :]).reshape(-1)
-        positions.append(pos[keep])
-        state_rows.append(flat[keep])
-    empty = np.zeros(0, np.int64)
-    return Pairs(
-        np.concatenate(positions) if positions else empty,
-        np.concatenate(state_rows) if state_rows else empty,
-    )
+    """The (entry, value bin) pairs of ``rows`` whose profile counts are not all zero. Which
+    rows of the state hold a count is found over the whole array where it lies, block by
+    block, and looked up for ``rows`` (stop 70: gathering the pairs' counts first copied
+    every count once, twice the time on the 10^5-entry benchmark state)."""
+    held = np.empty(flat_profile.shape[0], np.bool_)
+    step = ROW_BLOCK * values
+    for a in range(0, held.size, step):
+        np.any(flat_profile[a : a + step], axis=1, out=held[a : a + step])
+    flat = (rows[:, None] * values + np.arange(values, dtype=np.int64)[None, :]).reshape(-1)
+    keep = held[flat]
+    return Pairs(np.flatnonzero(keep).astype(np.int64), flat[keep])
 
 
 def narrowed(source: F64, rows: I64) -> RowTake:
