@@ -23,17 +23,17 @@ Nothing here depends on click: errors are :class:`TimeFormatError` (an ``InputEr
 
 from __future__ import annotations
 
-import os
 import re
 from datetime import UTC, date, datetime, time, timedelta
 from decimal import Decimal, InvalidOperation
-from pathlib import Path
-from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
-from aion_cli.engine.temporal.zones import suggest_zone, zone_key, zone_of
 from aion_cli.engine.time_text import EPOCH, Zone, from_ns, offset_text
-from aion_cli.errors import ConfigError, InputError
 from aion_cli.time_numbers import refuse_misread_number
+from aion_cli.time_zones import ZONE_HINT as ZONE_HINT
+from aion_cli.time_zones import TimeFormatError as TimeFormatError
+from aion_cli.time_zones import local_zone as local_zone
+from aion_cli.time_zones import refuse_capital_m as refuse_capital_m
+from aion_cli.time_zones import resolve_zone as resolve_zone
 
 NS_PER_S = 1_000_000_000
 MIN_TIME_NS = -2_208_988_800 * NS_PER_S
@@ -47,7 +47,6 @@ FORMS_HINT = (
     'use ISO 8601 ("2026-11-23 08:30", "2026-11-23T08:30:00+01:00"), UNIX seconds '
     '("1795420200"), a relative time ("now", "+2h", "-30m") or "tomorrow 12:00" / "tomorrow 9am"'
 )
-ZONE_HINT = 'use an IANA zone name ("Europe/Berlin", "UTC"), an offset ("+01:00") or "local"'
 
 DAY_SHIFTS = {"today": 0, "tomorrow": 1, "yesterday": -1}
 """The day words, by the days they shift today (alone: now shifted, as GNU date)."""
@@ -85,78 +84,6 @@ _RE_FRACTION = re.compile(r"(\d:\d{2}:\d{2})[.,](\d+)")
 """The fraction of a clock's seconds (``10:00:00.123456789``, ISO's ``10:00:00,5`` too)."""
 _RE_OWN_OFFSET = re.compile(r"\d:\d{2}(?::\d{2}(?:\.\d+)?)?\s*(z|[+-]\d{2}(?::?\d{2})?)$")
 """An ISO time's own offset at its end (``...08:30Z``, ``...08:30+02:00``, ``...08:30-05``)."""
-
-
-class TimeFormatError(InputError):
-    """A time or time-zone string the user typed cannot be understood."""
-
-
-_RE_CAPITAL_M = re.compile(r"\d\s*M(?![A-Za-z])")
-
-
-def refuse_capital_m(text: str, what: str = "") -> None:
-    """A length written with a capital ``M`` (``1M``, ``now-1M``): every duration aion reads
-    ignores case, so it would be a minute, where the writer most likely meant a month (a unit
-    aion has not). :class:`TimeFormatError` naming ``what`` (an option, or nothing where the
-    caller names it) and the ways to write either."""
-    if _RE_CAPITAL_M.search(text):
-        named = f"{what} {text!r}" if what else repr(text)
-        raise TimeFormatError(
-            f"a capital M in {named} would read as minutes, not months",
-            "write minutes as m or min (10m); months have no unit here: write days (30d)",
-        )
-
-
-# -- zones -------------------------------------------------------------------------------------
-def local_zone() -> Zone:
-    """The machine's local zone: ``$TZ``, else /etc/localtime, else the C library's offset."""
-    env = os.environ.get("TZ", "").lstrip(":")
-    if env:
-        try:
-            return Zone(ZoneInfo(env), env)
-        except (ZoneInfoNotFoundError, ValueError):
-            pass  # a POSIX TZ string such as "CET-1CEST": fall through to the C library
-    if not env:
-        name = _zone_name_from_system()
-        if name:
-            try:
-                return Zone(ZoneInfo(name), name)
-            except (ZoneInfoNotFoundError, ValueError):
-                pass
-    tz = datetime.now().astimezone().tzinfo or UTC
-    return Zone(tz, datetime.now(tz).tzname() or "local")
-
-
-def _zone_name_from_system() -> str | None:
-    localtime = Path("/etc/localtime")
-    try:
-        target = str(localtime.resolve())
-    except OSError:
-        target = ""
-    if "zoneinfo/" in target:
-        return target.split("zoneinfo/", 1)[1]
-    try:
-        return Path("/etc/timezone").read_text().strip() or None
-    except OSError:
-        return None
-
-
-def resolve_zone(name: str | None) -> Zone:
-    """``--tz`` value -> zone. ``None`` or "local" is the machine's local zone; an empty
-    value is a :class:`TimeFormatError` (an unset shell variable must not silently mean the
-    machine's zone instead of the map's)."""
-    if name is None or name.strip().lower() == "local":
-        return local_zone()
-    if not name.strip():
-        raise TimeFormatError("empty time zone", ZONE_HINT)
-    text = name.strip()
-    try:
-        tz = zone_of(text)
-    except ConfigError as exc:
-        meant = suggest_zone(text)
-        hint = f'did you mean "{meant}"? otherwise {ZONE_HINT}' if meant else ZONE_HINT
-        raise TimeFormatError(exc.message, hint) from exc
-    return Zone(tz, zone_key(text))
 
 
 # -- conversions -------------------------------------------------------------------------------

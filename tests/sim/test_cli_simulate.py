@@ -291,10 +291,10 @@ def test_tz_local_is_the_machines_zone_by_name(
 ) -> None:
     """``--tz local`` names the machine's zone, as ``build --tz local`` stores it; it was
     refused as an unknown zone 'local'."""
-    from aion_cli import timeparse
+    from aion_cli import time_zones
 
     monkeypatch.delenv("TZ", raising=False)
-    monkeypatch.setattr(timeparse, "_zone_name_from_system", lambda: "Asia/Tokyo")
+    monkeypatch.setattr(time_zones, "_zone_name_from_system", lambda: "Asia/Tokyo")
     log = tmp_path / "local.mcap"
     code, output = _run("simulate", "-o", log, "--days", "0.01", "--start", "2026-07-06T12:00",
                         "-q", "--tz", "local")  # fmt: skip
