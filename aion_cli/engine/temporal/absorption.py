@@ -15,8 +15,6 @@ Scoring a day before it is absorbed is :mod:`~aion_cli.engine.temporal.scoring`'
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 import numpy.typing as npt
 
@@ -24,10 +22,10 @@ from aion_cli.engine.grouping import split_by_key, unique_inverse
 from aion_cli.engine.temporal.accumulators import ObsBlock, TemporalState
 from aion_cli.engine.temporal.day_level import add_sums, day_sums
 from aion_cli.engine.temporal.params import TemporalParams
-from aion_cli.engine.temporal.pending import DayWindows
+from aion_cli.engine.temporal.pending import DayWindows, joined
 from aion_cli.engine.temporal.shape_prior import day_chi2
 from aion_cli.engine.temporal.week_evidence import add_day, week_bins
-from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import to_model_seconds, window_centre_ns
 
 C128 = npt.NDArray[np.complex128]
@@ -54,90 +52,93 @@ def absorb(
     state: TemporalState,
     day: DayWindows,
     window_ns: int,
-    counted: BoolA | None = None,
+    map_sums: bool = True,
 ) -> None:
     """Absorb the day's windows without scoring them (a query's view of the state);
-    ``counted``: :func:`~aion_cli.engine.temporal.week_evidence.add_day`'s (more of a day
-    absorbed before: :func:`absorb_parts`)."""
+    ``map_sums`` false: the entries' and the global block's sums alone (:func:`absorb_day`),
+    the day being part of a day whose map-wide sums :func:`absorb_parts` adds once."""
     if day.windows.size == 0:
         return
     t_s, h = slot_times(params, day, window_ns)
-    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns), counted)
+    absorb_day(params, state, day, t_s, h, slot_utc_seconds(day, window_ns), map_sums)
 
 
 def absorb_parts(
     params: TemporalParams, state: TemporalState, parts: list[DayWindows], window_ns: int
 ) -> None:
     """A query's ``parts`` (the pending day, then the open window) absorbed in turn
-    (``query_state.query_view``): a part on the local day the part before it ended on is
-    more of that day, whose hours of the week count no second day observed in the week sums
-    (the open window of a map's pending day had counted the day twice there, and a day of
-    the week seen once passed for two days: ``week_evidence.MIN_DAYS``)."""
-
-    def step(part: DayWindows, counted: BoolA | None) -> F64:
-        absorb(params, state, part, window_ns, counted)
-        return state.week_sums
-
-    _by_day(params, parts, window_ns, state.week_sums, step)
+    (``query_state.query_view``): parts of one local day (:func:`_local_days`) are one day of
+    the map-wide sums (``week_sums``, ``window_chi2``, ``day_level``), added once for the
+    day they make (``pending.joined``), as closing the window and the day will add it: each
+    part had added a day of its own, so the open window of a map's pending day was a second
+    day of the level sample (``day_level``: its cells' days observed 2, the spread between
+    the two parts' rates taken for a spread between days), of the week sums (a day of the
+    week seen once passed for two, ``week_evidence.MIN_DAYS``, and the open window was
+    scored against sums holding its own day's windows), and of the burstiness (its slot
+    compared with no other slot of its profile bin). The entries' sums are added part by
+    part, as before (the stored FreMEn components are taken so)."""
+    for day in _local_days(params, parts, window_ns):
+        for part in day:
+            absorb(params, state, part, window_ns, map_sums=len(day) == 1)
+        if len(day) > 1:
+            whole = joined(day)
+            _, h = slot_times(params, whole, window_ns)
+            _add_map_sums(params, state, whole, h, slot_utc_seconds(whole, window_ns))
 
 
 def view_week_sums(
     params: TemporalParams, state: TemporalState, parts: list[DayWindows], window_ns: int
 ) -> F64:
     """``state.week_sums`` as a query's view holds them (:func:`absorb_parts`), without
-    absorbing anything else: each part scored against the sums and the burstiness before it
-    and added, as :func:`absorb_day` adds it. What a ``week`` map's forecasts choose their
-    calendar by (:mod:`.calendar_view`); ``state`` is unchanged."""
+    absorbing anything else: each local day of the parts scored against the sums and the
+    burstiness before it and added, as :func:`absorb_day` adds it. What a ``week`` map's
+    forecasts choose their calendar by (:mod:`.calendar_view`); ``state`` is unchanged."""
     sums, chi2 = state.week_sums, state.window_chi2
-
-    def step(part: DayWindows, counted: BoolA | None) -> F64:
-        nonlocal sums, chi2
-        _, h = slot_times(params, part, window_ns)
-        utc_s = slot_utc_seconds(part, window_ns)
-        sums, chi2 = _week_step(params, sums, chi2, part, h, utc_s, counted)
-        return sums
-
-    _by_day(params, parts, window_ns, sums, step)
+    for day in _local_days(params, parts, window_ns):
+        whole = joined(day)
+        _, h = slot_times(params, whole, window_ns)
+        utc_s = slot_utc_seconds(whole, window_ns)
+        sums, chi2 = _week_step(params, sums, chi2, whole, h, utc_s)
     return sums
 
 
-def _by_day(
-    params: TemporalParams,
-    parts: list[DayWindows],
-    window_ns: int,
-    sums: F64,
-    step: Callable[[DayWindows, BoolA | None], F64],
-) -> None:
-    """``step`` (absorbing a part, returning the week sums after it) on each part with
-    windows, given the hours of the week counted observed already by the parts of its local
-    day before it (None for a part that begins another day)."""
-    day, counted = None, None
+def _local_days(
+    params: TemporalParams, parts: list[DayWindows], window_ns: int
+) -> list[list[DayWindows]]:
+    """The ``parts`` with windows in runs of one local day each: a part that begins on the
+    local day the part before it ended on is more of that day."""
+    days: list[list[DayWindows]] = []
+    last = None
     for part in parts:
         if part.windows.size == 0:
             continue
         ends = params.calendar.day(window_centre_ns(part.windows[[0, -1]], window_ns))
-        same = day is not None and int(ends[0]) == day
-        before = sums[0] if sums.size else 0.0
-        sums = step(part, counted if same else None)
-        added = sums[0] > before
-        counted = added | counted if same and counted is not None else added
-        day = int(ends[-1])
+        if days and int(ends[0]) == last:
+            days[-1].append(part)
+        else:
+            days.append([part])
+        last = int(ends[-1])
+    return days
 
 
 def _week_step(
-    params: TemporalParams,
-    sums: F64,
-    chi2: F64,
-    day: DayWindows,
-    h: I64,
-    utc_s: F64,
-    counted: BoolA | None = None,
+    params: TemporalParams, sums: F64, chi2: F64, day: DayWindows, h: I64, utc_s: F64
 ) -> tuple[F64, F64]:
     """The week sums with ``day`` scored against them and added, and the burstiness sums
     with the day's added (new arrays)."""
     week = week_bins(params.calendar, h, utc_s)
-    sums = add_day(sums, day, week, chi2, params.calendar.bins_per_day, counted)
+    sums = add_day(sums, day, week, chi2, params.calendar.bins_per_day)
     return sums, chi2 + day_chi2(day, h, params.n_profile)
+
+
+def _add_map_sums(
+    params: TemporalParams, state: TemporalState, day: DayWindows, h: I64, utc_s: F64
+) -> None:
+    """The day's map-wide sums added: its totals per hour of the week scored against the
+    week's bins, then added; how bursty its window totals are; and their level."""
+    state.week_sums, chi2 = _week_step(params, state.week_sums, state.window_chi2, day, h, utc_s)
+    state.window_chi2[...] = chi2  # in place: a writer may hold the array
+    state.day_level = add_sums(state.day_level, day_sums(day, h, params.n_profile))
 
 
 def absorb_day(
@@ -147,13 +148,14 @@ def absorb_day(
     t_s: F64,
     h: I64,
     utc_s: F64,
-    counted: BoolA | None = None,
+    map_sums: bool = True,
 ) -> None:
     """Absorb the day's windows (model times ``t_s``, profile bins ``h``, UTC model seconds
-    ``utc_s`` per slot: :func:`slot_times`, :func:`slot_utc_seconds`). A query's
-    state read without its per-entry Fourier sums (``TemporalState.fourier_loaded`` false)
-    absorbs everything else: its FreMEn components were computed with the windows when the
-    map was written (:mod:`~aion_cli.engine.temporal.components`)."""
+    ``utc_s`` per slot: :func:`slot_times`, :func:`slot_utc_seconds`); ``map_sums`` false:
+    all but the map-wide sums (:func:`absorb_parts`). A query's state read without its
+    per-entry Fourier sums (``TemporalState.fourier_loaded`` false) absorbs everything else:
+    its FreMEn components were computed with the windows when the map was written
+    (:mod:`~aion_cli.engine.temporal.components`)."""
     n_prof = params.n_profile
     phasor = np.exp(1j * np.multiply.outer(t_s, params.omega))  # (S, K): e^{iωt}
     fixed, share = day.fixed_slots()
@@ -169,12 +171,8 @@ def absorb_day(
             np.array([utc_s[fixed].max()]),
         )
         state.glob.add_block(np.array([0]), block)
-    # scored against the week's bins, then added; how bursty the day's window totals are
-    state.week_sums, chi2 = _week_step(
-        params, state.week_sums, state.window_chi2, day, h, utc_s, counted
-    )
-    state.window_chi2[...] = chi2  # in place: a writer may hold the array
-    state.day_level = add_sums(state.day_level, day_sums(day, h, n_prof))  # and their level
+    if map_sums:
+        _add_map_sums(params, state, day, h, utc_s)
     obs_e, obs_s, obs_w = day.own_pairs()
     for o in _row_blocks(obs_e):
         _absorb_observed(params, state, obs_e[o], obs_s[o], obs_w[o], utc_s, h, phasor)

@@ -113,6 +113,38 @@ class DayWindows:
         )
 
 
+def joined(parts: list[DayWindows]) -> DayWindows:
+    """Consecutive ``parts`` of one local day (each part's windows after the part's before
+    it: a query's pending day, then its open window) as one day, as
+    :meth:`PendingDay.consolidated` holds a day whose windows were all closed: slots in
+    window order, the pairs of both kinds sorted by entry, then slot. One part is returned
+    as it is."""
+    if len(parts) == 1:
+        return parts[0]
+    sizes = np.array([p.windows.size for p in parts], np.int64)
+    offset = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    obs_e = np.concatenate([p.obs_entry for p in parts]).astype(np.int64, copy=False)
+    cnt_e = np.concatenate([p.cnt_entry for p in parts]).astype(np.int64, copy=False)
+    # each part's pairs by entry, then slot, its slots after the parts' before it: a stable
+    # sort by entry orders the whole day's pairs by entry, then slot
+    obs, cnt = np.argsort(obs_e, kind="stable"), np.argsort(cnt_e, kind="stable")
+    obs_s = np.concatenate([p.obs_slot + o for p, o in zip(parts, offset, strict=True)])
+    cnt_s = np.concatenate([p.cnt_slot + o for p, o in zip(parts, offset, strict=True)])
+    weight = np.concatenate([p.weights() for p in parts])[obs]
+    share = np.concatenate([p.slot_shares() for p in parts])
+    return DayWindows(
+        np.concatenate([p.windows for p in parts]),
+        np.concatenate([p.fixed for p in parts]),
+        obs_e[obs],
+        obs_s[obs],
+        cnt_e[cnt],
+        cnt_s[cnt],
+        np.concatenate([p.cnt_values for p in parts])[cnt],
+        None if bool(np.all(weight == 1.0)) else weight,
+        None if bool(np.all(share == 1.0)) else share,
+    )
+
+
 @dataclass
 class PendingDay:
     """Closed windows of the local day ``day`` not yet absorbed (see the module docstring)."""

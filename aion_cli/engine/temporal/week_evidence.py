@@ -63,7 +63,7 @@ from aion_cli.engine.temporal.shape_prior import (
     shrunk_rate,
     slot_units,
 )
-from aion_cli.engine.types import F64, I64, BoolA
+from aion_cli.engine.types import F64, I64
 from aion_cli.engine.windows import EPOCH_NS
 from aion_cli.errors import MapCorruptError
 
@@ -120,14 +120,11 @@ def add_day(
     week_bin: I64,
     window_chi2: F64,
     bins_per_day: int,
-    counted: BoolA | None = None,
 ) -> F64:
     """``sums`` with the day scored against them and added (module docstring); ``week_bin``
     is each slot's hour of the week (:func:`week_bins`), ``window_chi2`` the map's burstiness
-    sums before the day. ``counted``: where ``day`` is more of a day added before (a query's
-    open window after its pending day), the hours of the week that day counted observed
-    already, which count no second day. A new array (``sums`` may be a map's empty
-    ``(4, 0)``)."""
+    sums before the day (a query's pending day and open window: one day,
+    ``absorption.absorb_parts``). A new array (``sums`` may be a map's empty ``(4, 0)``)."""
     n_bins = 7 * bins_per_day
     out = sums.copy() if sums.size else empty_sums(bins_per_day)
     total, units = slot_units(day)
@@ -141,7 +138,7 @@ def add_day(
         gain = (_log_likelihood(t, m * week[w]) - _log_likelihood(t, m * day_weekend[w])) / phi
         out[3] += np.bincount(w, gain, minlength=n_bins)
     observed = np.bincount(w, minlength=n_bins) > 0
-    out[0] += observed if counted is None else observed & ~counted
+    out[0] += observed
     out[1] += np.bincount(w, t, minlength=n_bins)
     out[2] += np.bincount(w, m, minlength=n_bins)
     return out
