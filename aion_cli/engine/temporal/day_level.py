@@ -10,7 +10,10 @@ forecast is outside the band of an hour's, a room's or a building's total
 closed day and cell it observed (units b > 0: the slots' units, detections per unit
 ρ = a / b, a the slots' detections), the map adds 1, ρ, ρ² and ρ / b to the cell's column:
 sums over days, so maps of disjoint days (``build --map``, ``aion merge``) add exactly, as
-``window_chi2`` does. A map written before the member reads as zeros: no level variance.
+``window_chi2`` does. A query's pending day and open window are one day of these sums, as
+closing them will add it (``absorption.absorb_parts``: the open window had been a day of its
+own, a cell's days observed one too many). A map written before the member reads as zeros: no
+level variance.
 
 **The level.** A day's rate in a cell is L_d λ_h: a day-level factor L_d (mean 1, variance
 c, shared by every cell of the day) times the cell's rate. Within a day the cell's rate is
