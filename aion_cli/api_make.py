@@ -225,14 +225,15 @@ def merge(
     """Merge map files of disjoint time into ``output``, as ``aion merge``
     (:func:`aion_cli.merging.merge_map_files`: same model parameters, no log in two maps,
     ``lineage`` auto / same / different, ``graph`` a Hydra graph file to bind to; one part
-    map alone, ``aion build --part``, is made a map); the merged map, with what the merge did
+    map alone, ``aion build --part``, is made a map, given alone or in a list, as
+    :func:`build` takes one log); the merged map, with what the merge did
     in ``Map.report`` (a ``MergeReport``)."""
     from aion_cli.api import read_map
     from aion_cli.api_checks import path_list, text
     from aion_cli.merging import merge_map_files
 
-    if isinstance(paths, (str, os.PathLike)):
-        raise InputError("merge takes a list of map files", hint="merge([a, b], output)")
+    if isinstance(paths, (str, os.PathLike)):  # one path alone, as build takes one log
+        paths = [paths]
     report = merge_map_files(
         [as_path(p, "map") for p in path_list(paths, "paths", one=False)],  # type: ignore[arg-type]
         as_path(output),

@@ -183,3 +183,20 @@ def test_without_output_the_map_is_written_where_aion_build_writes_it(
     built = aion.build(log)
     assert built.path == tmp_path / "monday.aion"
     assert [i.name for i in aion.Map.load(built.path).manifest.inputs] == ["monday.mcap"]
+
+
+def test_merge_takes_one_path_alone_as_build_does(office: Office, tmp_path: Path) -> None:
+    """``aion.merge("part.aion", out)``: one path alone is one map, as ``aion.build`` takes one
+    log and ``aion merge PART.aion`` one part map (it was refused: 'merge takes a list of map
+    files'); the map made equals the one of the list ``[part]``, and a full map alone is
+    refused as the command refuses it, a merge needing two."""
+    part = aion.build(office.log, tmp_path / "part.aion", part=True)
+    alone = aion.merge(str(part.path), tmp_path / "alone.aion")
+    listed = aion.merge([part.path], tmp_path / "listed.aion")
+    assert alone.report.detections == listed.report.detections > 0  # type: ignore[union-attr]
+    a, b = alone.predict(T).to_dict(), listed.predict(T).to_dict()
+    assert a.pop("map") != b.pop("map")
+    assert a == b
+    assert a["entries"]
+    with pytest.raises(InputError, match="a merge needs at least two maps"):
+        aion.merge(office.map, tmp_path / "full.aion")
