@@ -104,7 +104,7 @@ class _EveryUnit:
 
 def progress_sink(progress: object) -> ProgressSink | None:
     """``progress`` checked: None, or an object with the ``start(description, total,
-    unit)`` and ``advance(n)`` methods of :class:`aion_cli.build_report.ProgressSink` (not
+    unit)`` and ``advance(n)`` methods of :class:`Progress`, the type the docs name (not
     a flag: a build calls them, and would fail deep inside on anything else)."""
     if progress is None:
         return None
@@ -112,7 +112,8 @@ def progress_sink(progress: object) -> ProgressSink | None:
         raise InputError(
             f"progress must have start(description, total, unit) and advance(n) methods, "
             f"got {progress!r}",
-            hint="leave it out, or pass an object like aion_cli.build_report.NoProgress",
+            hint="leave it out, or pass an object with those methods "
+            "(the protocol aion_cli.api_make.Progress)",
         )
     return _EveryUnit(progress)  # type: ignore[arg-type]
 

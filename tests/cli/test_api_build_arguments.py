@@ -37,8 +37,13 @@ def test_build_arguments(office: Office, tmp_path: Path) -> None:
         aion.build(office.log, tmp_path / "d.aion", derive_graph="no")  # type: ignore[arg-type]
     with pytest.raises(InputError, match="part must be True or False"):
         aion.build(office.log, tmp_path / "p.aion", part="no")  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="progress must have start"):
+    with pytest.raises(InputError, match="progress must have start") as refused:
         aion.build(office.log, tmp_path / "g.aion", progress="yes")  # type: ignore[arg-type]
+    # the hint names the type docs/API.md names (it named build_report.NoProgress)
+    assert "aion_cli.api_make.Progress" in (refused.value.hint or "")
+    assert "aion_cli.api_make.Progress" in (
+        Path(__file__).resolve().parents[2] / "docs" / "API.md"
+    ).read_text(encoding="utf-8")
     with pytest.raises(InputError, match="progress must have start"):
         aion.merge([office.map, office.map], tmp_path / "m.aion", progress=True)  # type: ignore[arg-type]
     assert not any(tmp_path.glob("[dpgm].aion"))
