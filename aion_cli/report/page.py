@@ -244,8 +244,10 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
         return out
     window = f"{c.window_s / 60:g}-minute"
     lines = "one line per room (the busiest, the others summed)"
-    if c.activity[0].names == ("whole map",):
+    summed = "summed over each room's places as <code>aion predict --layer rooms</code> sums them"
+    if c.activity[0].names == ("whole map",):  # no room (or none holding a place)
         lines = "the whole map's flow"
+        summed = "summed over every entry <code>aion predict</code> lists, places and hash cells"
     grey = ""
     if any(s.unobserved is not None and s.unobserved.any() for s in c.activity):
         grey = (
@@ -260,8 +262,8 @@ def _activity(c: ReportContent, pictures: Mapping[str, str | None]) -> list[str]
             "measured."
         )
     out.append(
-        f"<p>Predicted flow (expected detections per {window} window, summed over each room's "
-        f"places as <code>aion predict --layer rooms</code> sums them), {lines}.{grey}</p>"
+        f"<p>Predicted flow (expected detections per {window} window, {summed}), "
+        f"{lines}.{grey}</p>"
     )
     roles = ("day_weekday", "day_weekend", "week")
     steps = ("every 15 minutes", "every 15 minutes", "every hour")

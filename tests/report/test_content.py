@@ -281,3 +281,21 @@ def test_the_roses_caption_says_what_their_rings_are(
     text = html.unescape(caption)
     assert "rings give the share of the place's headings" in text, text
     assert "one scale for every rose" in text, text
+
+
+def test_the_activity_text_of_a_map_without_rooms_sums_its_entries(
+    fixed_map: tuple[Path, LoadedMap], tmp_path: Path
+) -> None:
+    """The curves of a map without rooms are the whole map's flow (the sum over every entry,
+    test above): the text above them said they were 'summed over each room's places as aion
+    predict --layer rooms sums them', of a map that has no room."""
+    import html
+    import re
+
+    path, loaded = fixed_map
+    write_report(loaded, path, tmp_path / "r", resolve_zone("UTC"), None)
+    page = html.unescape((tmp_path / "r" / "index.html").read_text())
+    (text,) = re.findall(r"<p>Predicted flow \(.*?</p>", page, flags=re.S)
+    assert "room" not in text, text
+    assert "summed over every entry" in text
+    assert "the whole map's flow" in text
