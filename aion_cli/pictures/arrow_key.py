@@ -1,5 +1,5 @@
 """The key of a top-down picture's arrows: one reference arrow of a stated flow
-("= 4.5 detections per 600-s window"), drawn by matplotlib's ``quiverkey`` from the panel's own
+("= 4.55 detections per 600-s window"), drawn by matplotlib's ``quiverkey`` from the panel's own
 quiver, so that it is exactly as long as an arrow of that flow in the panel (the caption alone
 gave the scale in words). One key per figure, in the corner of the last panel with arrows where
 that panel draws nothing; where the map leaves no corner empty, over the panels, in a row of
@@ -26,14 +26,18 @@ LABEL_SEP_IN = 0.08
 
 
 def key_flow(flow_scale: float) -> float:
-    """The flow the key's arrow stands for: ``flow_scale`` (the flow drawn at full length)
-    rounded down to two significant digits (4.55 -> 4.5), so the key is about as long as the
-    longest arrow (a round 1, 2 or 5 drew the key of a series' panels, arrows of a few pixels,
-    as a head without a shaft) and reads as a short number."""
+    """The flow the key's arrow stands for: ``flow_scale`` (the flow drawn at full length) to
+    the three significant digits the caption states it in (:class:`.arrows.ArrowScale`'s
+    legend, ``number_text.significant``: 4.55, 150 for 149.7), so that the key and the
+    caption name one number (rounded down to two digits, the key said "= 140 detections"
+    under a caption of "up to 150"); as long as the longest arrow (a round 1, 2 or 5 drew the
+    key of a series' panels, arrows of a few pixels, as a head without a shaft). Rounded up,
+    it is drawn at full length, as a busier entry is."""
     if not flow_scale > 0 or not np.isfinite(flow_scale):
         return 0.0
-    power = 10.0 ** (np.floor(np.log10(flow_scale)) - 1.0)
-    return float(np.floor(flow_scale / power + 1e-9) * power)
+    from aion_cli.number_text import significant
+
+    return float(significant(flow_scale).replace(",", ""))
 
 
 def key_label(flow: float, window_s: float) -> str:

@@ -44,7 +44,7 @@ def _quiver(ax: Any) -> Any:
 
 
 def _stated_flow(key: Any) -> float:
-    """The flow the key's text states ("= 4.5 detections per 600-s window")."""
+    """The flow the key's text states ("= 4.55 detections per 600-s window")."""
     match = re.match(r"= ([0-9.,]+) detections?\s+per 600-s window", key.text.get_text())
     assert match, key.text.get_text()
     return float(match.group(1).replace(",", ""))
@@ -62,7 +62,7 @@ def test_the_key_is_as_long_as_an_arrow_of_its_stated_flow() -> None:
     angles = np.linspace(0.0, 1.5, len(xy))
     _, (ax,), (key,) = _drawn([cells_only_scene(xy, flows, angles)])
     stated = _stated_flow(key)
-    assert stated == key_flow(4.55) == pytest.approx(4.5)
+    assert stated == key_flow(4.55) == pytest.approx(4.55)  # the caption's "up to 4.55"
     quiver = _quiver(ax)
     metres = np.hypot(np.asarray(quiver.U), np.asarray(quiver.V))
     per_flow = metres / flows  # every arrow: length proportional to flow (none capped here)
@@ -73,6 +73,29 @@ def test_the_key_is_as_long_as_an_arrow_of_its_stated_flow() -> None:
     busiest = int(np.argmax(flows))
     arrow_units = _extent_along(quiver.get_paths()[busiest].vertices, angles[busiest])
     assert key_units / stated == pytest.approx(arrow_units / flows[busiest], rel=1e-6)
+
+
+def test_the_key_and_the_caption_name_one_flow() -> None:
+    """A busiest flow of 149.7: the caption states it to three digits ("150 detections"),
+    and so does the key; rounded down to two digits the key said "= 140 detections" under a
+    caption of "up to 150". Rounded up, the key's arrow is the full length (a busier entry's,
+    capped), as long as the busiest arrow drawn."""
+    from aion_cli.pictures.arrow_key import key_label
+    from aion_cli.pictures.arrows import ArrowScale
+
+    xy = _grid(4.0, 4, 3)
+    flows = np.linspace(1.0, 149.7, len(xy))
+    fig, (ax,), (key,) = _drawn([cells_only_scene(xy, flows)])
+    assert _stated_flow(key) == 150.0
+    caption = fig.get_supxlabel()
+    assert "(the longest: 150 detections per 600-s window)" in caption, caption
+    quiver = _quiver(ax)
+    assert float(key.U) == pytest.approx(float(np.hypot(quiver.U, quiver.V).max()))
+    # a scale below the largest flow: "up to 150" and "= 150"
+    legend = ArrowScale(149.7, 900.0).legend(600.0)
+    assert "up to 150 detections" in legend
+    assert key_label(key_flow(149.7), 600.0).startswith("= 150 detections")
+    assert key_flow(1234.5) == 1230.0  # the caption's "1,230", read back
 
 
 def test_a_series_has_one_key_in_an_empty_corner() -> None:
