@@ -19,7 +19,9 @@ if TYPE_CHECKING:
 
 
 def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
-    """:func:`parse_node_id`, whose error also lists the graph's room names, if it has any."""
+    """:func:`parse_node_id`, whose error also lists the graph's room names, if it has any,
+    or says that the map has none (no scene graph, a graph without rooms, rooms without
+    names) and where names come from, for a word not of an id's form (``kitchen``)."""
     from aion_cli.errors import InputError
 
     try:
@@ -27,11 +29,31 @@ def parse_id_or_name(text: str, graph: GraphSnapshot | None) -> int:
     except InputError as exc:
         names = [] if graph is None else room_names(graph)
         if not names:
-            raise
+            if _printed_id(text.strip()):  # an id's form (too large): its own error
+                raise
+            why, where = _no_names(graph)
+            raise InputError(
+                f"not a node id or room name: {text!r} ({why})",
+                hint=f'node ids look like "p12" (see `aion predict MAP`); {where}',
+            ) from exc
         raise InputError(
             f"not a node id or room name: {text!r}",
             hint='node ids look like "p12"; rooms and buildings by name: ' + ", ".join(names[:12]),
         ) from exc
+
+
+def _no_names(graph: GraphSnapshot | None) -> tuple[str, str]:
+    """Why a map has no room names to read a word as, and where names come from."""
+    source = "room names are the room labels of a Hydra scene graph"
+    if graph is None:
+        return "the map has no scene graph, so no rooms", f"{source} (build with --graph FILE)"
+    if len(graph.rooms) == 0 and len(graph.buildings) == 0:
+        return (
+            "the map's scene graph has no rooms",
+            f"{source} that has rooms (a graph aion derives has places only)",
+        )
+    ids = [node_label(int(i)) for i in graph.rooms.ids[:6]]
+    return "the map's rooms have no names", f"{source}; this map's rooms by id: {', '.join(ids)}"
 
 
 def room_in_other_case(node_id: int, graph: GraphSnapshot) -> int | None:
@@ -181,12 +203,11 @@ def with_names_resolved(
 ) -> list[str | int]:
     """``nodes`` with every room or building name replaced by its id (others as given); a
     word that is neither a name nor an id is an error listing the graph's names, as ``plan``
-    gives (``predict --node kitchn`` said only "not a node id")."""
-    if graph is None:
-        return list(nodes)
+    gives (``predict --node kitchn`` said only "not a node id"), or saying that the map has
+    none (:func:`parse_id_or_name`)."""
     out: list[str | int] = []
     for node in nodes:
-        named = named_node(node, graph) if isinstance(node, str) else None
+        named = named_node(node, graph) if isinstance(node, str) and graph is not None else None
         if named is None and isinstance(node, str):
             text = node.strip()
             if not _printed_id(text):  # predict's own ids are for the map to answer

@@ -179,3 +179,32 @@ def test_a_room_whose_centre_place_is_isolated_is_reached_by_its_other_places(
         lost.stderr, "no path from p0 to p5", "the start 0.1,0 snapped to p0 (0.10 m away)",
         "the goal 5,0.3 snapped to p5 (0.20 m away)",
     )
+
+
+def test_a_name_on_a_map_without_rooms_says_it_has_none(tmp_path: Path) -> None:
+    """``predict --node kitchen`` / ``plan --to kitchen`` on a map without rooms said "not a
+    node id: 'kitchen'" (a hint about ids only), where ``--layer rooms`` says clearly that
+    the map has no rooms: a word that is no id says the map has no rooms to name, and where
+    names come from; ids keep their own errors."""
+    from tests.robustness.conftest import T0, S, build_json, person, write_log
+
+    walk = [person(T0 + k * S, (0.1 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    log = write_log(tmp_path / "walk.mcap", walk)
+    derived, bare = tmp_path / "derived.aion", tmp_path / "bare.aion"
+    assert build_json(log, "--derive-graph", "-o", derived)["nodes"] > 0
+    build_json(log, "-o", bare)
+    time = str(T0 // S)
+    for args, why in (
+        (["predict", derived, "--time", time, "--node", "kitchen"], "scene graph has no rooms"),
+        (["plan", derived, "--time", time, "--from", "0,0", "--to", "kitchen"],
+         "scene graph has no rooms"),
+        (["predict", bare, "--time", time, "--node", "kitchen"], "no scene graph, so no rooms"),
+    ):
+        result = run(*args)
+        assert result.exit_code == 2, result.stdout
+        assert_one_line_error(result.stderr, "not a node id or room name: 'kitchen'", why)
+        assert "room labels of a Hydra scene graph" in result.stderr
+    # an id's form keeps its error, and a place id is answered
+    too_large = run("predict", derived, "--time", time, "--node", "p99999999999999999999")
+    assert_one_line_error(too_large.stderr, "node index too large")
+    assert run("predict", derived, "--time", time, "--node", "p0").exit_code == 0
