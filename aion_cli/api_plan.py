@@ -45,7 +45,7 @@ def plan(
     ``--step`` without ``--leave``."""
     from dataclasses import replace
 
-    from aion_cli.mapquery import nav_graph
+    from aion_cli.mapquery import entry_positions, nav_graph
     from aion_cli.predictions import hour_flags
     from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
@@ -65,7 +65,7 @@ def plan(
     t_ns, zone = self._time("now" if time is None else time, tz)
     nav = nav_graph(self._loaded)
     graph = self._loaded.graph
-    a, b = resolve_ends(start, goal, nav, graph)
+    a, b = resolve_ends(start, goal, nav, graph, entry_positions(self._loaded.state))
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
     if leave is None:
         routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)

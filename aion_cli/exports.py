@@ -213,11 +213,11 @@ def path_ends(
     no path between them is a ``NoPathError`` now, before any file is written); ``snapped``
     gets the ``snapped`` record of each end given as a point, room or building (as ``aion
     plan --format json`` lists them)."""
-    from aion_cli.mapquery import nav_graph
+    from aion_cli.mapquery import entry_positions, nav_graph
     from aion_cli.routes import plan_routes, resolve_ends
 
     nav = nav_graph(loaded)
-    a, b = resolve_ends(path_from, path_to, nav, loaded.graph)
+    a, b = resolve_ends(path_from, path_to, nav, loaded.graph, entry_positions(loaded.state))
     if snapped is not None:
         records = (a.snapped("--path-from"), b.snapped("--path-to"))
         snapped.extend(r for r in records if r is not None)

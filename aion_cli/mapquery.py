@@ -172,6 +172,13 @@ def latest_graph(state: MapState) -> GraphSnapshot | None:
     return graph
 
 
+def entry_positions(state: MapState) -> np.ndarray:
+    """The positions (f64[n,3]) of the map's entries, places and hash cells: what the map
+    spans beside its scene graph (a graph of one place among cells 40 m apart spans 0 m)."""
+    entries = state.entries
+    return entries.xyz[entries.live_rows()]
+
+
 def state_counts(state: MapState) -> dict[str, int]:
     """Unbound cells, graph nodes (and those holding flow), bound cells and windows observed
     (the most any entry has seen, the open window included as the flows count it, each window

@@ -77,13 +77,18 @@ class Endpoint:
 
 
 def resolve_endpoint(
-    where: str | int, nav: NavGraph, graph: GraphSnapshot | None = None
+    where: str | int,
+    nav: NavGraph,
+    graph: GraphSnapshot | None = None,
+    spanned: npt.ArrayLike = (),
 ) -> Endpoint:
     """A node id (``"p12"``, ``"p(12)"``, an int), a room or building of ``graph`` (``"R3"``:
     its place nearest the room's centre), or coordinates ``"x,y[,z]"`` snapped to the nearest
     node; :class:`~aion_cli.errors.UnknownNodeError` for an id not in the graph (or a room
     without a place in it), :class:`~aion_cli.errors.InputError` for a point far from every
-    node (:func:`~aion_cli.engine.node_ids.refuse_far_point`)."""
+    node (:func:`~aion_cli.engine.node_ids.refuse_far_point`), farther than the graph and the
+    positions ``spanned`` (the map's entries, its hash cells: ``mapquery.entry_positions``)
+    span together."""
     if isinstance(where, (int, np.integer)):  # a NodeSymbol value: a place, room, ...
         return _node_endpoint(int(where), nav, graph)
     point = parse_point(where)
@@ -97,7 +102,8 @@ def resolve_endpoint(
     row = nav.nearest(point)
     node_id = int(nav.ids[row])
     distance = point_distance(tuple(float(v) for v in nav.xyz[row]), point)
-    refuse_far_point(where, distance, node_label(node_id), nav.xyz)
+    held = np.concatenate([nav.xyz.reshape(-1, 3), np.asarray(spanned, np.float64).reshape(-1, 3)])
+    refuse_far_point(where, distance, node_label(node_id), held)
     return Endpoint(node_id, point, distance)
 
 
@@ -217,14 +223,20 @@ def _room_endpoint(
 
 
 def resolve_ends(
-    start: str | int, goal: str | int, nav: NavGraph, graph: GraphSnapshot | None = None
+    start: str | int,
+    goal: str | int,
+    nav: NavGraph,
+    graph: GraphSnapshot | None = None,
+    spanned: npt.ArrayLike = (),
 ) -> tuple[Endpoint, Endpoint]:
-    """:func:`resolve_endpoint` of both ends of a plan; a room or building whose place
+    """:func:`resolve_endpoint` of both ends of a plan (``spanned``: the map's entries'
+    positions, which a point may lie as far as they span); a room or building whose place
     nearest its centre is not joined to the other end (an isolated place of the scene graph)
     stands for its nearest place of those that are, if it has one: the room is reachable.
     Ends that are still not joined are a :class:`~aion_cli.errors.NoPathError` that says
     which place a point or room given as an end stood for."""
-    a, b = resolve_endpoint(start, nav, graph), resolve_endpoint(goal, nav, graph)
+    a = resolve_endpoint(start, nav, graph, spanned)
+    b = resolve_endpoint(goal, nav, graph, spanned)
     comp = nav.components
     row_a, row_b = nav.index_of(a.node_id), nav.index_of(b.node_id)
     if comp[row_a] == comp[row_b]:

@@ -151,7 +151,7 @@ def command(
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.plan_departures import departure_times, print_departures
     from aion_cli.errors import InputError
-    from aion_cli.mapquery import nav_graph
+    from aion_cli.mapquery import entry_positions, nav_graph
     from aion_cli.predictions import hour_flags
     from aion_cli.routes import plan_departures, plan_routes, resolve_ends
 
@@ -176,7 +176,7 @@ def command(
     every = "10m" if step is None else step
     leaving = None if leave is None else departure_times(leave, every, zone)
     nav = nav_graph(loaded)
-    a, b = resolve_ends(start, goal, nav, loaded.graph)
+    a, b = resolve_ends(start, goal, nav, loaded.graph, entry_positions(loaded.state))
     if leaving is None:
         t_ns, _ = resolve_time(time_text, tz, loaded)
         routes = plan_routes(loaded, a.node_id, b.node_id, t_ns, speed, nav)

@@ -208,3 +208,38 @@ def test_a_name_on_a_map_without_rooms_says_it_has_none(tmp_path: Path) -> None:
     too_large = run("predict", derived, "--time", time, "--node", "p99999999999999999999")
     assert_one_line_error(too_large.stderr, "node index too large")
     assert run("predict", derived, "--time", time, "--node", "p0").exit_code == 0
+
+
+def test_a_point_may_lie_as_far_as_the_map_spans_with_its_hash_cells(tmp_path: Path) -> None:
+    """A scene graph of one place (0,0) and detections along x up to 39.6 m (hash cells): a
+    point 30 m from the place lies inside the map, whose cells span 40 m, and snaps to it
+    (plan, export's path ends and Map.plan alike), as ``predict --at`` takes it; it was
+    refused as "farther than 10 m, more than the whole map spans (0 m)", the span of the
+    graph alone. A point farther than the cells span is refused naming that span."""
+    import aion_cli as aion
+    from aion_cli.errors import InputError
+    from tests.cli.logdata import save_graph_file
+    from tests.robustness.conftest import T0, S, build_json, person, write_log
+
+    walk = [person(T0 + k * S, (0.4 * (k % 100), 0.0, 0.0)) for k in range(300)]
+    log = write_log(tmp_path / "walk.mcap", walk)
+    graph = save_graph_file(tmp_path / "one.json", {0: (0.0, 0.0, 0.0)}, [])
+    out = tmp_path / "one.aion"
+    report = build_json(log, "--graph", graph, "-o", out)
+    assert report["nodes"] == 1
+    assert report["cells"] > 0
+    time = str(T0 // S)
+    doc = run_json("plan", out, "--time", time, "--from", "30,0", "--to", "p0",
+                   "--format", "json")
+    (start,) = doc["snapped"]
+    assert start["node"] == "p0"
+    assert start["distance_m"] == pytest.approx(30.0)
+    exported = run("export", out, "--time", time, "--path-from", "30,0", "--path-to", "p0",
+                   "-o", tmp_path / "scene")
+    assert exported.exit_code == 0, exported.stderr
+    assert aion.Map.load(out).plan("30,0", "p0", time=int(T0)).snapped[0]["node"] == "p0"
+    far = run("plan", out, "--time", time, "--from", "80,0", "--to", "p0")
+    assert_one_line_error(far.stderr, "80 m from the nearest place (p0)",
+                          "farther than the whole map spans (40 m)")
+    with pytest.raises(InputError, match="the whole map spans"):
+        aion.Map.load(out).plan("80,0", "p0", time=int(T0))
