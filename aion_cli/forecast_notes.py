@@ -78,6 +78,9 @@ def forecast_notes(
     come from the flows of an hour no log observed. ``shown``: the zone the time is printed
     in (``--tz``; default UTC), which :func:`unseen_day` names its day against; ``series``:
     the times ``t_ns`` belongs to, whose days of its kind :func:`unseen_day` names too."""
+    empty = empty_map(manifest)
+    if empty is not None:  # nothing else to say of a map of no entry
+        return [empty]
     notes = []
     static = all_static(manifest)
     if static is not None:
@@ -102,6 +105,21 @@ def forecast_notes(
     if unobserved is not None:
         notes.append(unobserved + (PLAN_COSTS if noun == "departures" else ""))
     return notes
+
+
+EMPTY_MAP = (
+    "the map holds no entries (no place, no hash cell: it has observed no detection, and no "
+    "scene graph gave it places), so it lists nothing"
+)
+"""The note of a query of a map of no entry (``Map.from_state`` of a state fed nothing): its
+table and exported files are empty, not a time when nobody walks."""
+
+
+def empty_map(manifest: Manifest) -> str | None:
+    """:data:`EMPTY_MAP` for a map whose counts say it holds no place and no hash cell, else
+    None (a map of a scene graph's places lists them, with no flow)."""
+    counts = manifest.counts
+    return EMPTY_MAP if counts.get("nodes") == 0 and counts.get("cells") == 0 else None
 
 
 def query_notes(

@@ -217,6 +217,18 @@ def announce_time(
             note(line)
 
 
+def note_empty(loaded: Any) -> None:
+    """Say on stderr that the map ``loaded`` holds no entries, if so
+    (:func:`aion_cli.forecast_notes.empty_map`; :func:`announce_time` says it of a forecast)."""
+    from aion_cli.cli.console import note
+    from aion_cli.forecast_notes import empty_map
+    from aion_cli.manifest import Manifest
+
+    said = empty_map(Manifest.from_dict(loaded.manifest))
+    if said is not None:
+        note(said)
+
+
 def load(map_path: Path) -> Any:
     """Read a map for a query (``aion_cli.mapquery.load_map``): without the Fourier sums
     when the map stores the FreMEn components its forecasts use."""

@@ -13,6 +13,7 @@ from aion_cli.cli.common import (
     AionPath,
     announce_time,
     map_argument,
+    note_empty,
     quiet_option,
     resolve_time,
     series_of,
@@ -230,6 +231,8 @@ def command(
         label = f"series of {len(times)} from" if series else "time"
         span = [int(t) for t in times if t is not None] if series else None
         announce_time(times[0], zone, label, loaded, series=span, text=t_from or time_text)
+    else:  # --historical: no forecast's notes, but an empty map's
+        note_empty(loaded)
     for snap in snapped:
         note(snapped_text(snap))
     if historical and ends is not None:

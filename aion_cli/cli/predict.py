@@ -12,6 +12,7 @@ from aion_cli.cli.common import (
     TIME_HELP,
     announce_time,
     map_argument,
+    note_empty,
     option_given,
     quiet_option,
     resolve_time,
@@ -170,6 +171,8 @@ def command(
     entries, count = predicted_columns(loaded, t_ns, layer, nodes, at, shown)
     if t_ns is not None and zone is not None:
         announce_time(t_ns, zone, loaded=loaded, text=time_text)
+    else:  # --historical: no forecast's notes, but an empty map's
+        note_empty(loaded)
     say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
     (seen,) = hour_flags(loaded, [t_ns])
     if fmt in ("json", "csv"):
