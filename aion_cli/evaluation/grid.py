@@ -163,16 +163,19 @@ class GridMoD:
         """Per window and cell, the share of the window the cell's centre was observed in,
         float64[n_windows, n_cells], as aion counts its entries' windows
         (:meth:`ObservationSource.coverage`: the robot's exposure, at least
-        ``exposure_floor``, with ``exposure``, else 1 wherever in range; 1 for every cell in a
-        fixed sensor's window); 0 where unobserved. None: every cell, a fixed sensor."""
+        ``exposure_floor``, with ``exposure``, else 1 wherever in range; in a fixed sensor's
+        window, for every cell the share of it the logs recorded, as aion counts it
+        (:meth:`ObservationSource.fixed_share`: a log that starts or ends inside a window
+        watched only that part); 0 where unobserved. None: every cell, a fixed sensor."""
         if observation is None:
             return None
         centres = self.spec.centres()
-        ones = np.ones(self.spec.n_cells)
+        windows = np.arange(first, first + n_windows, dtype=np.int64)
+        fixed = observation.fixed_share(windows, window_ns, self.config)
         return np.stack(
             [
-                ones
-                if observation.fixed_covers(first + k, window_ns)
+                np.full(self.spec.n_cells, fixed[k])
+                if fixed[k] > 0
                 else observation.coverage(centres, first + k, window_ns, self.config)
                 for k in range(n_windows)
             ]

@@ -139,3 +139,37 @@ def test_grid_under_a_robot_counts_windows_as_aion_does(exposure: bool) -> None:
     np.testing.assert_allclose(expected_counts_per_window(grid)[[a, b]], want, rtol=1e-12)
     static = grid.predict(t0, static=True)
     np.testing.assert_allclose(static[[a, b]].sum(axis=1), want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("exposure", [True, False])
+def test_grid_counts_a_fixed_sensor_log_that_starts_mid_window_by_its_share(
+    exposure: bool,
+) -> None:
+    """A fixed sensor's log starts a quarter into its first window; a person passes every
+    50 s (12 a window), so the sensor records 9 in the first window and 12 in each other.
+    With ``exposure`` aion counts the first window by the share recorded (0.75, its own
+    ``fixed_share``), and so must the grid: 12 a window everywhere; without it, whole
+    windows: fewer than 12 (the first window's 9 over a whole window)."""
+    window, steps, n_windows = 600 * 10**9, 60, 4
+    t0 = (EPOCH_NS // window + 1000) * window
+    step = window // steps
+    start = t0 + 15 * step  # a quarter into the first window
+    source = ObservationSource()
+    source.set_fixed_sensor(start, t0 + n_windows * window)
+    k = np.arange(15, n_windows * steps, 5)  # every fifth step from the log's start
+    batch = DetectionBatch.from_arrays(
+        t0 + k * step, np.tile([0.5, 0.5, 0.0], (k.size, 1)), np.zeros(k.size),
+        np.ones(k.size), np.arange(k.size),
+    )
+    config = ModelConfig(window_s=600.0, exposure=exposure)
+    grid = GridMoD(GridSpec.covering(batch.xyz[:, :2], 1.0), config, normalise=False)
+    grid.fit(batch, start, t0 + n_windows * window, source)
+    cell = grid.spec.cell_of(np.array([[0.5, 0.5]]))[0]
+    assert grid.historical()[cell].sum() == 9 + 12 * (n_windows - 1)
+    recorded = n_windows - 0.25 if exposure else float(n_windows)
+    np.testing.assert_allclose(grid.windows_observed_per_cell, recorded, rtol=1e-12)
+    assert source.fixed_share(
+        np.arange(t0 // window, t0 // window + n_windows), window, config
+    ).sum() == pytest.approx(recorded)  # aion's own count of the same windows
+    want = 12.0 if exposure else (9 + 12 * (n_windows - 1)) / n_windows
+    np.testing.assert_allclose(expected_counts_per_window(grid)[cell], want, rtol=1e-12)
