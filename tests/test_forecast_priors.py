@@ -209,3 +209,51 @@ def test_a_week_map_stores_the_priors_of_the_calendar_it_forecasts_with(tmp_path
     assert run("build", SAMPLE, "-o", week_map, "--config", config, "-q").exit_code == 0
     assert json.loads(zipfile.ZipFile(week_map).read("manifest.json"))["families"]["calendar"]
     assert _stored(week_map) == _estimated(week_map, tmp_path)
+
+
+def test_a_merge_copies_its_inputs_without_estimating_their_priors(
+    sample_map: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``merge_states`` leaves its inputs as they were by merging copies of them; a copy is
+    read back writable (which never uses stored priors) and never written, so its priors are
+    not estimated (0.8 s of CPU at 10^5 entries each): the merge estimates none, the copy
+    holds every member the original does, to the bit, and writing the merged map still
+    stores the priors a query of it would estimate."""
+    from aion_cli.engine import merge, state_arrays
+    from aion_cli.engine.state import MapState, merge_states
+
+    state = load_map(sample_map, writable=True).state
+    want, want_meta = state.to_arrays()
+    calls: list[int] = []
+
+    def counted(s: MapState) -> PoolPriors:
+        calls.append(1)
+        return view_priors(s)
+
+    monkeypatch.setattr(state_arrays, "view_priors", counted)
+    copy = merge._copy(state)
+    merged = merge_states(state, MapState.empty(state.config))
+    assert calls == []
+    got, meta = copy.to_arrays()
+    assert calls == [1]
+    assert sorted(got) == sorted(want)
+    assert meta == want_meta
+    for name, array in want.items():
+        assert np.asarray(got[name]).tobytes() == np.asarray(array).tobytes(), name
+    stored = PoolPriors.from_arrays(merged.to_arrays()[0])
+    assert stored == view_priors(merged) == PoolPriors.from_arrays(want)
+
+
+def test_the_atc_map_size_counts_the_priors_without_estimating_them(
+    sample_map: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The evaluation's map bytes are every member's, the priors' five numbers included, as
+    the map written holds them, but the priors are not estimated for it."""
+    from aion_cli.engine import state_arrays
+    from aion_cli.evaluation.atc import _state_bytes
+
+    state = load_map(sample_map, writable=True).state
+    arrays, _ = state.to_arrays()
+    monkeypatch.setattr(state_arrays, "view_priors", None)  # called: a TypeError
+    assert _state_bytes(state) == sum(np.asarray(a).nbytes for a in arrays.values())
+    assert MEMBER in arrays

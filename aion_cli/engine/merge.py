@@ -122,7 +122,9 @@ def _start_order(state: MapState) -> tuple[int, int]:
 
 
 def _copy(state: MapState) -> MapState:
-    arrays, meta = state.to_arrays()
+    """A writable copy of ``state``, without the forecast priors (a writable state read back
+    never uses them; the merged map's are computed when it is written)."""
+    arrays, meta = state.to_arrays(priors=False)
     return type(state).from_arrays(arrays, meta)
 
 

@@ -374,10 +374,13 @@ class MapState:
         return out
 
     # -- persistence ------------------------------------------------------------------------
-    def to_arrays(self, lazy: bool = False) -> tuple[dict[str, Any], dict[str, Any]]:
+    def to_arrays(
+        self, lazy: bool = False, priors: bool = True
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Plain arrays and a JSON-serialisable meta dict (config, counters, window, graph):
-        :func:`~aion_cli.engine.state_arrays.map_state_to_arrays`."""
-        return map_state_to_arrays(self, lazy)
+        :func:`~aion_cli.engine.state_arrays.map_state_to_arrays` (``priors=False``: without
+        the forecast priors, for a copy that is not written)."""
+        return map_state_to_arrays(self, lazy, priors)
 
     @classmethod
     def from_arrays(

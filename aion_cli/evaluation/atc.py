@@ -243,5 +243,11 @@ def _train_models(
 
 
 def _state_bytes(state: MapState) -> int:
-    arrays, _meta = state.to_arrays()
+    """The bytes of the state's map members: the forecast priors (a map that forecasts
+    stores them) counted by their member's size, not estimated (only their bytes matter)."""
+    from aion_cli.engine.temporal.pool_priors import PoolPriors
+
+    arrays, _meta = state.to_arrays(priors=False)
+    if state.deferred is None:
+        arrays.update(PoolPriors(0.0, 0.0, None, 0, 0).to_arrays())
     return int(sum(a.nbytes for a in arrays.values()))
