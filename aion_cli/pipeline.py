@@ -60,6 +60,7 @@ from aion_cli.build_options import (
     check_not_an_input,
 )
 from aion_cli.build_output import write_build
+from aion_cli.build_plausibility import held_ground, new_ground_warning
 from aion_cli.build_reading import ReadStep
 from aion_cli.build_report import BuildReport, NoProgress, ProgressSink
 from aion_cli.continued_map import check_part, frame_warning, load_continued
@@ -84,6 +85,7 @@ from aion_cli.topic_mappable import no_detection_topic
 from aion_cli.topics import TopicPlan
 
 if TYPE_CHECKING:
+    from aion_cli.build_plausibility import HeldGround
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import I64
@@ -139,6 +141,7 @@ class _Build(ReadStep):
         self._marks = NO_MARKS  # the times of the messages that only mark spans
         self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
+        self._held: HeldGround | None = None  # its entries before (build_plausibility)
         self._tally = MapperTally(0)  # what the Mapper accepted and dropped, per topic
 
     def _graph_feed(self) -> GraphFeed:
@@ -203,6 +206,7 @@ class _Build(ReadStep):
             self.previous_manifest = Manifest.from_dict(self.previous.manifest)
             self.report.continued = True
             self._map_open = self.previous.state.open_window
+            self._held = held_ground(self.previous.state)
             warning = frame_warning(  # --map-frame said so
                 opts.continue_from.name, self.previous_manifest.map_frame, opts.map_frame
             )
@@ -370,6 +374,11 @@ class _Build(ReadStep):
         previous = self.previous_manifest
         recordings = previous.recordings if previous is not None else ()
         check_continued(recordings, self._continued_name(), self._log_names(), self.report.sketch)
+        if self._held is not None and self.opts.continue_from is not None:
+            name = self.opts.continue_from.name
+            warning = new_ground_warning(state, self._held, name)  # another place's logs
+            if warning is not None:
+                self.report.warnings.append(warning)
         write_build(
             state, config, inputs, self.report, self.previous_manifest, self.opts.map_frame,
             self.opts.observed,
