@@ -125,8 +125,9 @@ def load_map_head(path: Path | str) -> MapHead:
 def invalid_state_named(path: Path) -> Iterator[None]:
     """A map whose members pass their checksums but do not make a valid state (a value,
     dtype or shape the state's readers refuse: ``MapState.from_arrays``) reported with the
-    map's path and the hint ``check_loaded``'s refusals give, as the file checks report a
-    damaged member: the engine's :class:`~aion_cli.errors.MapCorruptError` names the member
+    map's path and the hint ``check_loaded``'s refusals give (theirs named the path too since
+    stop 70: a position beyond the spatial hash's range named no map), as the file checks
+    report a damaged member: the engine's :class:`~aion_cli.errors.MapCorruptError` names the member
     alone and has no hint (the command line printed ``error: map member forecast_priors
     holds [...]`` and nothing more, not saying which map of a merge)."""
     from aion_cli.errors import MAP_REBUILD_HINT, MapCorruptError
@@ -134,10 +135,10 @@ def invalid_state_named(path: Path) -> Iterator[None]:
     try:
         yield
     except MapCorruptError as exc:
+        if str(path) not in exc.message:  # which map of a merge or a --map
+            exc.message = f"map {path} is invalid: {exc.message}"
+            exc.args = (exc.message, *exc.args[1:])
         if exc.hint is None:
-            if str(path) not in exc.message:
-                exc.message = f"map {path} is invalid: {exc.message}"
-                exc.args = (exc.message, *exc.args[1:])
             exc.hint = MAP_REBUILD_HINT
         raise
 

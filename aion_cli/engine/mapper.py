@@ -17,7 +17,8 @@ Choices:
 
 * **NaN headings** count for activity (``nodir``) but not for a direction bin or the speed
   descriptor; NaN speeds only skip the speed descriptor. Non-finite positions are dropped and
-  counted as ``"nan"``, positions outside the hashable range as ``"out_of_range"``.
+  counted as ``"nan"``, positions outside the hashable range as ``"out_of_range"``; robot
+  poses of either kind are dropped (:meth:`Mapper.add_trajectory`).
 * **Empty windows**: when time jumps over windows with no detections, the whole run is closed
   at once; every recorded window goes to the temporal model with who observed it (an observed
   empty window is a real zero, an unobserved one teaches nothing). An entry with detections in
@@ -55,7 +56,12 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.entries import CELL, direction_bins
 from aion_cli.engine.grouping import split_by_key
 from aion_cli.engine.ownership import apply_graph, bind_cells
-from aion_cli.engine.spatial_hash import cell_centres, hashable_indices, pack_keys_unchecked
+from aion_cli.engine.spatial_hash import (
+    cell_centres,
+    hashable_indices,
+    pack_keys_unchecked,
+    packable_mask,
+)
 from aion_cli.engine.state import DROP_REASONS, MapState
 from aion_cli.engine.types import I64, DetectionBatch, GraphSnapshot, Trajectory
 from aion_cli.engine.windows import window_index, window_ns
@@ -178,7 +184,14 @@ class Mapper:
         return release_all(st)
 
     def add_trajectory(self, trajectory: Trajectory) -> None:
-        """Robot poses for the observation masks (any time order, before windows close)."""
+        """Robot poses for the observation masks (any time order, before windows close).
+        Poses beyond the spatial hash's range are dropped as non-finite ones are (they say
+        nothing of what was seen: no cell lies within ``sensor_range`` of them, and their
+        distances overflowed to inf)."""
+        xy = np.asarray(trajectory.xyz, dtype=np.float64).reshape(-1, 3)[:, :2]
+        near = packable_mask(np.column_stack([xy, np.zeros(len(xy))]), self._state.config.cell_size)
+        if len(near) == len(trajectory) and not near.all():
+            trajectory = Trajectory(np.asarray(trajectory.t_ns)[near], trajectory.xyz[near])
         if len(trajectory):
             check_time(int(np.min(trajectory.t_ns)), "a robot pose")
             check_time(int(np.max(trajectory.t_ns)), "a robot pose")

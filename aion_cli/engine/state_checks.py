@@ -180,6 +180,7 @@ def check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
         *_pending_problems(state, arrays),
         *_table_problems(state),
         *_graph_problems(state.graph),
+        *_far_problems(state),
         *_meta_problems(state),
     ]
     if problems:
@@ -188,6 +189,39 @@ def check_loaded(state: MapState, arrays: Mapping[str, np.ndarray]) -> None:
             + (f" and {len(problems) - 3} more" if len(problems) > 3 else ""),
             hint=MAP_REBUILD_HINT,
         )
+
+
+def _first_far(name: str, values: np.ndarray, cell_size: float) -> str | None:
+    """A problem with finite positions ``values`` beyond the spatial hash's range for
+    ``cell_size`` (``spatial_hash.INDEX_MIN`` .. ``INDEX_MAX`` cells from the origin), naming
+    the member, the value and its row: no build places anything there (it drops such
+    detections as ``out_of_range``), and the queries would hash, group and measure
+    distances of garbage (an entry at x = -1e300 grouped by an int64 cast, a pose's
+    distance overflowing to inf). None when every position is in range."""
+    from aion_cli.engine.spatial_hash import INDEX_MAX, INDEX_MIN
+
+    v = np.asarray(values, np.float64)
+    if v.size == 0:
+        return None
+    with np.errstate(over="ignore", invalid="ignore"):
+        scaled = np.floor(v / cell_size)
+        far = ~((scaled >= INDEX_MIN) & (scaled <= INDEX_MAX)) & np.isfinite(v)
+    if not far.any():
+        return None
+    flat = int(np.flatnonzero(far.ravel())[0])
+    row = np.unravel_index(flat, v.shape)[0]
+    return (
+        f"{name} holds {v.ravel()[flat]:g} (row {row}), beyond the spatial hash's range "
+        f"(±{-INDEX_MIN * cell_size:g} m at cell_size {cell_size:g})"
+    )
+
+
+def _far_problems(state: MapState) -> list[str]:
+    """The positions of a loaded state beyond the spatial hash's range (:func:`_first_far`):
+    its entries' and its robot poses', which the queries hash, group and measure."""
+    size, n = state.config.cell_size, state.entries.n
+    members = (("entry_xyz", state.entries.xyz[:n]), ("obs_pose_xy", state.observation.pose_xy))
+    return [p for name, v in members if (p := _first_far(name, v, size)) is not None]
 
 
 def _entry_problems(state: MapState) -> list[str]:

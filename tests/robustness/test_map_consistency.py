@@ -132,6 +132,10 @@ CASES: dict[str, tuple[Callable[[Arrays, Any], None], str]] = {
     # today: exit 1, "internal error: ValueError: 'x' must be finite"
     "NaN entry position": (_set("entry_xyz", (2, 0), np.nan), "entry_xyz holds nan"),
     "negative cell key": (_set("entry_key", 0, -5), "negative spatial-hash key"),
+    # before stop 70: finite, so loaded, and grouped by an int64 cast of -1e300
+    "entry far beyond the spatial hash": (
+        _set("entry_xyz", (2, 0), -1e300),
+        "entry_xyz holds -1e+300 (row 2), beyond the spatial hash's range (±524288 m"),
     # today: exit 0, predicted flows from NaN observation counts / a negative profile
     "NaN observed windows": (_set("temporal_obs_n", 0, np.nan), "temporal_obs_n holds nan"),
     "negative observed windows per profile bin": (
@@ -155,6 +159,9 @@ CASES: dict[str, tuple[Callable[[Arrays, Any], None], str]] = {
     "NaN place": (_set("graph_places_xyz", (3, 2), np.nan), "graph_places_xyz holds nan"),
     "robot poses out of time order": (_reverse("obs_pose_t"), "obs_pose_t is not sorted"),
     "poses of different lengths": (_cut("obs_pose_xy"), "obs_pose_t 20, obs_pose_xy 19"),
+    # before stop 70: a distance from it overflowed to inf (engine.sensor_reach)
+    "robot pose far beyond the spatial hash": (
+        _set("obs_pose_xy", (3, 1), 1e300), "obs_pose_xy holds 1e+300 (row 3), beyond"),
     "fixed-sensor interval backwards": (_backwards_interval, "ends before it starts"),
     "negative drop count": (_meta("dropped", {"nan": -3}), "negative drop counts"),
     "open window in the year 2e10": (_meta("open_window", 10**18), "the open window"),
