@@ -148,3 +148,50 @@ def feed_bursts(
     m.advance(end)
     arrays, _meta = m.state.to_arrays()
     return {k: np.asarray(v) for k, v in arrays.items()}
+
+
+def start_fed_mapper(
+    cfg: Any, start: int, robot: bool, robot_s: int, fixed_s: int, pool: np.ndarray
+) -> Any:
+    """The property tests' mapper before their operations: a robot driving along x from −1
+    to 3 m over ``robot_s`` seconds (a pose every 5 s), or a fixed sensor watching for
+    ``fixed_s`` seconds, from ``start``; and a first graph of every place of ``pool``."""
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.types import Trajectory
+
+    m = Mapper(cfg)
+    if robot:
+        t = np.arange(start, start + robot_s * S, 5 * S, dtype=np.int64)
+        xyz = np.c_[np.linspace(-1, 3, t.size), np.zeros(t.size), np.zeros(t.size)]
+        m.add_trajectory(Trajectory(t, xyz))
+    else:
+        m.set_fixed_sensor(start, start + fixed_s * S)
+    m.add_graph(graph(start, list(range(len(pool))), pool))
+    return m
+
+
+def feed_detect(m: Any, t: int, n: int, seed: float) -> tuple[int, np.ndarray]:
+    """The property tests' ``detect`` operation: ``n`` detections at ``t`` drawn with ``seed``
+    over the 4 m square of their places on two floors, a fifth without a heading. Returns the
+    number the mapper accepted and the [Σ cos, Σ sin] of their headings, which the tests
+    follow through the map; NaN where any was dropped (which rows is not said)."""
+    rng = np.random.default_rng(int(seed))
+    xyz = np.c_[rng.uniform(-1, 3, (n, 2)), rng.choice([0.0, 3.0], n)]
+    heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
+    drops = m.add_detections(detections(t, xyz, heading, rng.uniform(0, 2, n)))
+    directed = heading[np.isfinite(heading)]
+    walked = np.array([np.cos(directed).sum(), np.sin(directed).sum()])
+    taken = n - sum(drops.values())
+    return taken, walked if taken == n else np.full(2, np.nan)
+
+
+def assert_temporal_unchanged(before: Any, after: Any) -> None:
+    """Every accumulator of two temporal states (:class:`TemporalState`), the global and
+    observation blocks included, the same bits."""
+    for name in ("cnt_fourier", "cnt_profile", "flow_score", "dir_score", "window_chi2",
+                 "day_level", "week_sums"):  # fmt: skip
+        assert getattr(after, name).tobytes() == getattr(before, name).tobytes(), name
+    for block in ("obs", "glob"):
+        for field in ("n", "fourier", "profile", "first", "last"):
+            old, new = getattr(getattr(before, block), field), getattr(getattr(after, block), field)
+            assert new.tobytes() == old.tobytes(), (block, field)

@@ -24,6 +24,7 @@ from tests.engine.engine_builders import (
     check_invariants,
     closed_counts,
     detections,
+    feed_detect,
     graph,
     open_counts,
     pending_counts,
@@ -356,16 +357,9 @@ def test_invariants_hold_for_any_sequence(ops: list[tuple[str, int, float]]) -> 
         st_ = m.state
         nodes_before = len(st_.entries.node_rows())
         if kind == "detect":
-            rng = np.random.default_rng(int(b))
-            n = int(a)
-            xyz = np.c_[rng.uniform(-1, 3, (n, 2)), rng.choice([0.0, 3.0], n)]
-            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-            drops = m.add_detections(detections(t, xyz, heading, rng.uniform(0, 2, n)))
-            accepted += n - sum(drops.values())
-            directed = heading[np.isfinite(heading)]
-            walked += [np.cos(directed).sum(), np.sin(directed).sum()]
-            if sum(drops.values()):
-                walked[:] = np.nan  # which rows were dropped is not said: stop checking
+            taken, turned = feed_detect(m, t, int(a), b)
+            accepted += taken
+            walked += turned  # NaN from a drop on: stop checking
         elif kind == "graph":
             if int(a) >= 0:
                 present[int(a)] = ~present[int(a)]

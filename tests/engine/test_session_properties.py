@@ -14,7 +14,14 @@ from hypothesis import strategies as st
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.mapper import Mapper
 from aion_cli.tf_trees import overlap_groups, overlapping
-from tests.engine.engine_builders import T0_DAY_END, S, check_invariants, detections, graph
+from tests.engine.engine_builders import (
+    T0_DAY_END,
+    S,
+    check_invariants,
+    feed_detect,
+    graph,
+    start_fed_mapper,
+)
 from tests.engine.test_ownership import POOL, _totals
 
 # -- Mapper.begin_session ---------------------------------------------------------------------
@@ -49,32 +56,16 @@ def test_a_session_change_accounts_for_every_detection(
     DESIGN.md §4), with their heading sums, and nothing is counted that was not accepted. A
     robot's poses or a fixed sensor observe."""
     cfg = ModelConfig(stability_s=10.0, window_s=60.0, cell_size=0.5, bind_radius=1.0)
-    m = Mapper(cfg)
     start = T0_DAY_END - 300 * S  # five minutes before midnight: many sequences close a day
-    if robot:
-        from aion_cli.engine.types import Trajectory
-
-        t = np.arange(start, start + 3000 * S, 5 * S, dtype=np.int64)
-        xyz = np.c_[np.linspace(-1, 3, t.size), np.zeros(t.size), np.zeros(t.size)]
-        m.add_trajectory(Trajectory(t, xyz))
-    else:
-        m.set_fixed_sensor(start, start + 10**5 * S)
+    m = start_fed_mapper(cfg, start, robot, 3000, 10**5, POOL)
     present = np.ones(len(POOL), bool)
-    m.add_graph(graph(start, list(range(len(POOL))), POOL))
     t, accepted, walked = start, 0, np.zeros(2)
     for kind, a, b in ops:
         t += 7 * S
         if kind == "detect":
-            rng = np.random.default_rng(int(b))
-            n = int(a)
-            xyz = np.c_[rng.uniform(-1, 3, (n, 2)), rng.choice([0.0, 3.0], n)]
-            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-            drops = m.add_detections(detections(t, xyz, heading, rng.uniform(0, 2, n)))
-            accepted += n - sum(drops.values())
-            directed = heading[np.isfinite(heading)]
-            walked += [np.cos(directed).sum(), np.sin(directed).sum()]
-            if sum(drops.values()):
-                walked[:] = np.nan  # which rows were dropped is not said: stop checking
+            taken, turned = feed_detect(m, t, int(a), b)
+            accepted += taken
+            walked += turned  # NaN from a drop on: stop checking
         elif kind == "graph":
             if int(a) >= 0:
                 present[int(a)] = ~present[int(a)]

@@ -16,7 +16,6 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
-from aion_cli.engine.mapper import Mapper
 from aion_cli.engine.state import MapState
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.calendar import Calendar
@@ -28,7 +27,14 @@ from aion_cli.engine.temporal.shape_prior import pool_week, pooled_week_bins
 from aion_cli.engine.temporal.week_evidence import MIN_DAYS, week_bins
 from aion_cli.engine.view_priors import view_priors
 from aion_cli.engine.windows import EPOCH_NS
-from tests.engine.engine_builders import T0_DAY_END, S, detections, graph
+from tests.engine.engine_builders import (
+    T0_DAY_END,
+    S,
+    assert_temporal_unchanged,
+    feed_detect,
+    graph,
+    start_fed_mapper,
+)
 from tests.engine.test_ownership import POOL
 
 ZONES = ["UTC", "Europe/Berlin", "America/New_York", "Asia/Kolkata", "Pacific/Chatham",
@@ -145,27 +151,14 @@ def _fed(ops: list[tuple[str, int, float]], robot: bool, week: bool) -> MapState
     profile = "week" if week else "day_weekend"
     cfg = ModelConfig(stability_s=10.0, window_s=60.0, cell_size=0.5, bind_radius=1.0,
                       profile=profile)  # fmt: skip
-    m = Mapper(cfg)
     start = T0_DAY_END - 300 * S
-    if robot:
-        from aion_cli.engine.types import Trajectory
-
-        t = np.arange(start, start + 30_000 * S, 5 * S, dtype=np.int64)
-        xyz = np.c_[np.linspace(-1, 3, t.size), np.zeros(t.size), np.zeros(t.size)]
-        m.add_trajectory(Trajectory(t, xyz))
-    else:
-        m.set_fixed_sensor(start, start + 10**6 * S)
+    m = start_fed_mapper(cfg, start, robot, 30_000, 10**6, POOL)
     present = np.ones(len(POOL), bool)
-    m.add_graph(graph(start, list(range(len(POOL))), POOL))
     t = start
     for kind, a, b in ops:
         t += 7 * S
         if kind == "detect":
-            rng = np.random.default_rng(int(b))
-            n = int(a)
-            xyz = np.c_[rng.uniform(-1, 3, (n, 2)), rng.choice([0.0, 3.0], n)]
-            heading = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(-np.pi, np.pi, n))
-            m.add_detections(detections(t, xyz, heading, rng.uniform(0, 2, n)))
+            feed_detect(m, t, int(a), b)
         elif kind == "graph":
             if int(a) >= 0:
                 present[int(a)] = ~present[int(a)]
@@ -193,14 +186,7 @@ def test_view_priors_leave_the_state_and_are_what_a_query_estimates(
     before = t.copy()
     generation, high_water = t.generation, t.high_water
     priors = view_priors(state)
-    after = t.copy()
-    for name in ("cnt_fourier", "cnt_profile", "flow_score", "dir_score", "window_chi2",
-                 "day_level", "week_sums"):  # fmt: skip
-        assert getattr(after, name).tobytes() == getattr(before, name).tobytes(), name
-    for block in ("obs", "glob"):
-        for field in ("n", "fourier", "profile", "first", "last"):
-            old, new = getattr(getattr(before, block), field), getattr(getattr(after, block), field)
-            assert new.tobytes() == old.tobytes(), (block, field)
+    assert_temporal_unchanged(before, t.copy())
     assert (t.generation, t.high_water) == (generation, high_water)
     assert view_priors(state) == priors
     arrays, meta = state.to_arrays()
