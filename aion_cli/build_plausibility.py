@@ -101,7 +101,7 @@ def held_ground(state: MapState) -> HeldGround:
 
     entries = state.entries
     live = entries.live_rows()
-    held = entries.totals(live)
+    held = entries.counts[live].sum(axis=1) + entries.nodir[live]
     nodes = np.unique(entries.node_id[live[entries.kind[live] == NODE]])
     return entries.xyz[live].copy(), nodes, float(held.sum())
 
@@ -126,7 +126,7 @@ def new_ground_warning(state: MapState, ground: HeldGround, name: str) -> str | 
     held_xyz, held_nodes, held_total = ground
     entries = state.entries
     live = entries.live_rows()
-    per_row = entries.totals(live)
+    per_row = entries.counts[live].sum(axis=1) + entries.nodir[live]
     new = float(per_row.sum()) - held_total
     if len(held_xyz) == 0 or new <= 0:
         return None

@@ -205,7 +205,7 @@ def state_counts(state: MapState) -> dict[str, int]:
 def entries_with_detections(entries: Any, rows: I64) -> int:
     """How many of ``rows`` hold a detection (a node's entry may hold only the windows in
     which the robot saw nobody there)."""
-    held = entries.totals(rows)
+    held = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
     return int(np.count_nonzero(held > 0))
 
 

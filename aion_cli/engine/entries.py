@@ -342,11 +342,6 @@ class EntryStore:
             ).reshape(m, b))
             add_rows(self.speed_n, target, np.bincount(idx, minlength=m * b).reshape(m, b))
 
-    def totals(self, rows: I64) -> F64:
-        """Detections ``rows`` hold (directed + undirected), the open window's not counted."""
-        out: F64 = self.counts[rows].sum(axis=1) + self.nodir[rows]
-        return out
-
     def window_totals(self, rows: I64) -> F64:
         """Detections of ``rows`` in the open window (directed + undirected)."""
         out: F64 = self.window_counts[rows].sum(axis=1) + self.window_nodir[rows]
