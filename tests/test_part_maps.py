@@ -2,7 +2,8 @@
 
 A part holds its closed days unscored; ``aion merge`` joins the parts in time order and scores
 each held day against everything before it, so merging parts gives the map of one build of all
-their logs (engine/shards.py), which merging ordinary maps cannot (each scored its own days).
+their logs (engine/shards.py), which merging ordinary maps cannot once a map closed a day of
+its own (it scored that day against its own history: merge approximation 2).
 Logs: ``tests/cli/logdata.py`` (a robot at a fixed pose, people at fixed spots, the office
 graph in every scene-graph message), two hours each on different days.
 """
@@ -61,10 +62,18 @@ def test_merging_parts_equals_one_build_of_all_logs(tmp_path: Path) -> None:
     assert doc["parts"] == 4
     assert not [n for n in doc["notes"] if "not exactly" in n]
     assert differences(_state(whole), _state(merged)) == []  # type: ignore[arg-type]
-    # ordinary maps of the same logs: each scored its own days, so the merge differs
+    # ordinary maps of one day each merge as one build too: none closed a day, so each day
+    # is scored at the merge against every day before it, and the last two maps' day is one
+    # pending day (merge approximation 4 no longer applies: stop 71)
     ordinary = _each_built(tmp_path, logs, "map")
     assert run("merge", *ordinary, "-o", tmp_path / "ord.aion", "-q").exit_code == 0
-    assert differences(_state(whole), _state(tmp_path / "ord.aion")) != []  # type: ignore[arg-type]
+    assert differences(_state(whole), _state(tmp_path / "ord.aion")) == []  # type: ignore[arg-type]
+    # an ordinary map that closed a day (days 1 and 3 in one) scored day 1 against its own
+    # history only (merge approximation 2): the merge differs
+    rest = tmp_path / "rest.aion"
+    assert run("build", *logs[1:], "-o", rest, "--workers", "1", "-q").exit_code == 0
+    assert run("merge", ordinary[0], rest, "-o", tmp_path / "two.aion", "-q").exit_code == 0
+    assert differences(_state(whole), _state(tmp_path / "two.aion")) != []  # type: ignore[arg-type]
 
 
 def test_parts_that_overlap_in_time_are_refused(tmp_path: Path) -> None:

@@ -1,7 +1,8 @@
 """Merging two maps of disjoint time (e.g. built from two logs on different days).
 
 The earlier map's open window is closed first (as the later map's first detection would have
-done in a single pass). Then the later map is the base (its graph, node table, redirects, open
+done in a single pass; up to the later map's first recorded window when that map closed no
+day). Then the later map is the base (its graph, node table, redirects, open
 window and pending poses are the newest) and every entry of the earlier map is added to where
 its state belongs there: a cell goes to the later map's cell at the same key, or follows the
 later map's redirect; a node goes to the node's entry (created if the node lives in the later
@@ -12,10 +13,13 @@ as two released nodes in one cell, first fold by the larger, as within one map),
 (Σn·e^{iωt}, per profile bin) and scores;
 the global fixed-sensor observations of the two maps add, so an entry only one map has counts
 as observed-empty over the other's fixed-sensor windows, as a single pass would. The earlier
-map's pending day is scored and absorbed first. Then the earlier map's redirects to nodes
-alive in the later graph are kept, moving any later cell at such a key into the node, and the
-cells that hold the earlier map's cells bind to the later map's stable places in reach, as one
-build binds a cell once a place near it turns stable.
+map's pending day is scored and absorbed first, unless it is the local day on which the later
+map starts and the later map has closed no day (its first day still pending): then the
+earlier map's windows of that day come before the later map's in one pending day, scored once
+when the day is over, as one build holds it (:mod:`aion_cli.engine.merge_days`). Then the
+earlier map's redirects to nodes alive in the later graph are kept, moving any later cell at
+such a key into the node, and the cells that hold the earlier map's cells bind to the later
+map's stable places in reach, as one build binds a cell once a place near it turns stable.
 A consuming merge (``aion merge``'s fold) is built in the earlier map's storage when it is
 the larger: for maps without nodes by :mod:`aion_cli.engine.merge_cells`, for others by
 :mod:`aion_cli.engine.merge_rows` (the earlier entries the later map can touch merged as
@@ -28,7 +32,10 @@ nor windows in which one map's cells were still unbound while the other's node o
 map's first day was not scored against the earlier map's model); (3) a node's stability timer
 keeps the earlier start only when the later map's reference position is within
 ``stable_move_tolerance`` of the earlier one; (4) when the earlier map ends on the day the
-later one starts, that day is scored as two days; (5) the earlier map's cells bind to the later
+later one starts and the later map goes on past that day (it closed the day: its windows of
+it are scored and absorbed, which cannot be undone) or starts in the earlier map's last
+window, that day is scored as two days (a later map that ends on the day it starts joins the
+earlier map's windows of the day exactly); (5) the earlier map's cells bind to the later
 map's places where those ended (a map keeps no history of its places' positions): one build
 binds a cell to a place that was in reach at any time after the place turned stable, so a
 place that a loop closure moved out of ``bind_radius`` may hold the cell in one build and not
@@ -42,9 +49,9 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import ADDITIVE, CELL, NODE
 from aion_cli.engine.merge_cells import cells_only, merge_into_earlier
+from aion_cli.engine.merge_days import carry_pending, close_earlier
 from aion_cli.engine.merge_rows import in_earlier_storage, merge_in_earlier
 from aion_cli.engine.nearest import nearest_nodes
 from aion_cli.engine.node_drift import approximate_timers
@@ -79,28 +86,25 @@ def merge_maps(a: MapState, b: MapState, *, consume: bool = False) -> MapState:
     if consume and earlier.entries.n >= later.entries.n and cells_only(a) and cells_only(b):
         return merge_into_earlier(earlier, later)  # the same map; costs the later one only
     early = earlier if consume else _copy(earlier)
-    close_earlier(early)
+    close_earlier(early, later)
     out = later if consume else _copy(later)
     if consume and in_earlier_storage(early, out):
         return merge_in_earlier(early, out)  # the same map; costs the later one only
     return merge_closed(early, out)
 
 
-def close_earlier(early: MapState) -> None:
-    """Close the earlier map's open window and score its pending day (as the later map's
-    first detection would have in one pass): the first step of every merge."""
-    if early.open_window is not None:
-        close_windows(early, early.open_window + 1)
-    early.close_day()
-
-
 def merge_closed(early: MapState, out: MapState) -> MapState:
     """The merge built in the later map ``out`` (changed) once :func:`close_earlier` closed
-    ``early``: every entry of ``early`` added where it belongs in ``out``."""
+    ``early``: every entry of ``early`` added where it belongs in ``out``, and its pending
+    day, if left open, before ``out``'s."""
     merge_timers(out, early)
     src_rows = early.entries.canonical_order()
     dst = destinations(out, early, src_rows)
     add_entries(out, early, src_rows, dst)
+    if early.pending:  # the later map's first day: one day (moves below re-label it)
+        row_map = np.full(early.entries.capacity, -1, np.int64)
+        row_map[src_rows] = dst
+        carry_pending(out, early, row_map)
     adopt_redirects(out, early)
     bind_early_cells(out, np.unique(dst))
     # the earlier map's fixed-sensor intervals (and any poses left): the merged map observed

@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from aion_cli.engine.closing import close_windows
 from aion_cli.engine.entries import ADDITIVE, CELL, NODE
+from aion_cli.engine.merge_days import close_earlier
 from aion_cli.engine.spatial_hash import unpack_keys
 
 if TYPE_CHECKING:
@@ -49,9 +49,7 @@ def cells_only(state: MapState) -> bool:
 def merge_into_earlier(early: MapState, late: MapState) -> MapState:
     """``merge_maps(early, late, consume=True)`` for two :func:`cells_only` maps (``early``
     first in time), built in ``early``; ``late`` is left in an unspecified state."""
-    if early.open_window is not None:
-        close_windows(early, early.open_window + 1)
-    early.close_day()
+    close_earlier(early, late)
     src = late.entries.canonical_order()
     dst, new = _rows_for(early, late, src)
     _add_entries(early, late, src, dst, new)
@@ -61,7 +59,7 @@ def merge_into_earlier(early: MapState, late: MapState) -> MapState:
     early.temporal.touch()
     row_map = np.full(late.entries.capacity, -1, np.int64)
     row_map[src] = dst
-    early.pending = late.pending.relabelled(row_map)
+    early.pending.extend(late.pending.relabelled(row_map))  # after its own, if left open
     # what the result built in the later map has of the later map's own, and the sums
     observation = late.observation
     observation.join(early.observation)

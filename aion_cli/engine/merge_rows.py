@@ -43,7 +43,7 @@ if TYPE_CHECKING:
 
 def in_earlier_storage(early: MapState, late: MapState) -> bool:
     """Whether :func:`merge_in_earlier` applies and pays: two ordinary maps (no part), the
-    earlier one the larger, its pending day scored (``engine.merge.close_earlier``)."""
+    earlier one the larger, its pending day scored (``engine.merge_days.close_earlier``)."""
     return (
         early.deferred is None
         and late.deferred is None

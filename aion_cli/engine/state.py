@@ -228,8 +228,12 @@ class MapState:
 
     def recorded_anything(self) -> bool:
         """Whether any window was recorded (closed) yet."""
+        return bool(self.pending) or self.closed_a_day()
+
+    def closed_a_day(self) -> bool:
+        """Whether any day was closed (scored and absorbed): windows in the accumulators."""
         t = self.temporal
-        return bool(self.pending) or bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
+        return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
 
     def close_day(self, rows: I64 | None = None) -> None:
         """Score the pending day against the model before it, then absorb it; a shard
