@@ -19,12 +19,9 @@ if TYPE_CHECKING:
     from aion_cli.manifest import Manifest
 
 
-def pair_notes(
-    early: str, end_ns: int | None, early_state: MapState, late: str, start_ns: int | None
-) -> list[str]:
+def pair_notes(early: str, end_ns: int | None, late: str, start_ns: int | None) -> list[str]:
     """Two consecutive maps (names ``early`` and ``late``; the earlier one ends at
-    ``end_ns``, the later starts at ``start_ns``): overlapping times, and approximation (4),
-    a day both maps hold is scored as two."""
+    ``end_ns``, the later starts at ``start_ns``): overlapping times."""
     notes = []
     if interleave(end_ns, start_ns):
         notes.append(
@@ -32,13 +29,35 @@ def pair_notes(
             f"{early} ends): a window both observed, if any, counts twice (merge maps of "
             "disjoint time)"
         )
-    w = early_state.open_window
-    if w is not None and start_ns is not None and _same_day(early_state, w, start_ns):
-        notes.append(
-            f"{early} ends on the day {late} starts: that day is scored as two days (merge "
-            "approximation 4)"
-        )
     return notes
+
+
+def day_notes(
+    early: str, early_state: MapState, late: str, late_state: MapState, start_ns: int | None
+) -> list[str]:
+    """Approximation (4) for the map ``late`` (starting at ``start_ns``) about to be merged
+    after ``early`` (``early_state``: the merge so far): a day both maps hold is scored as two
+    when the merge cannot join its two parts (the later map closed that day, or starts in
+    the earlier map's last window: :func:`aion_cli.engine.merge_days.shared_first_day`)."""
+    from aion_cli.engine.merge_days import shared_first_day
+
+    w = early_state.open_window
+    if w is None or late_state.open_window is None or start_ns is None:
+        return []  # a map that recorded no window holds no day
+    if not _same_day(early_state, w, start_ns):
+        return []
+    if shared_first_day(early_state, late_state) is not None:
+        return []  # one pending day, as one build holds it
+    return [
+        f"{early} ends on the day {late} starts, and {late} "
+        + (
+            "goes on past that day"
+            if late_state.closed_a_day()
+            else f"starts in the time window in which {early} ends"
+        )
+        + ": that day is scored as two days (merge approximation 4; a map that ends on "
+        "the day it starts, merged after one that ends that day, joins it as one day)"
+    ]
 
 
 def declared_gap_note(
@@ -149,7 +168,7 @@ class ApproximationTally:
             self.only += _unseen_entries(self._last, state)
             if self.lineage == "same":
                 self.moved += _moved_nodes(self._last, state)
-            self.closed = self.closed or _closed_a_day(state)
+            self.closed = self.closed or state.closed_a_day()
         self._last = Footprint.of(state)
 
     def notes(self, parts: bool = False) -> list[str]:
@@ -228,12 +247,6 @@ def _first_observed(state: MapState) -> npt.NDArray[np.float64]:
         entry, slot, _ = day.own_pairs()
         np.fmin.at(first, entry, slot_utc_seconds(day, state.window_ns)[slot])
     return first
-
-
-def _closed_a_day(state: MapState) -> bool:
-    """Whether a map has closed (and so scored) any day: windows in its accumulators."""
-    t = state.temporal
-    return bool(t.glob.n[0] > 0) or bool(t.obs.n[: t.high_water].any())
 
 
 def _moved_nodes(early: Footprint, late: MapState) -> int:

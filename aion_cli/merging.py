@@ -289,6 +289,7 @@ def _fold(
     from aion_cli.engine.state import MapState
     from aion_cli.merge_notes import (
         ApproximationTally,
+        day_notes,
         declared_gap_note,
         interleave,
         pair_notes,
@@ -315,7 +316,7 @@ def _fold(
             report.released += release_all(state)
         late = maps[k + 1] if k + 1 < len(maps) else None
         if late is not None and not late.head.part:  # a part's join scores that day once
-            pairs.extend(pair_notes(m.name, m.manifest.end_ns, state, late.name, late.start()))
+            pairs.extend(pair_notes(m.name, m.manifest.end_ns, late.name, late.start()))
             if interleave(m.manifest.end_ns, late.start()):
                 tally.interleaved()
         if k == 0 or state.deferred is None:
@@ -339,6 +340,8 @@ def _fold(
             if m.manifest.graph_source.startswith("file "):  # each part added the file anew
                 acc.graph = file_graph_time(acc.graph, before)
         else:
+            if acc is not None:  # a day both hold that the merge cannot join
+                pairs.extend(day_notes(maps[k - 1].name, acc, m.name, state, m.start()))
             acc = state if acc is None else merge_maps(acc, state, consume=True)
         del state
         sink.advance(1)
