@@ -9,7 +9,7 @@ stop 69)."""
 
 from __future__ import annotations
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from aion_cli.engine.mapper import Mapper
@@ -74,6 +74,7 @@ def test_maps_of_one_day_merged_in_either_order_predict_what_one_build_does(
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(earlier=EARLIER, later=LATER, times=TIMES)
+@example(earlier=[(0, 7, 1), (1, 7, 2)], later=(3, 1, 3), times=[0])  # the earlier larger
 def test_maps_of_hash_cells_of_one_day_folded_in_place_predict_what_one_build_does(
     earlier: list[tuple[int, int, int]], later: tuple[int, int, int], times: list[int]
 ) -> None:
