@@ -304,12 +304,7 @@ def _what_it_is(path: Path) -> str:
 
 def fsync_dir(folder: Path) -> None:
     """Make a rename durable; best effort (some filesystems refuse to open folders)."""
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+    _fsync_file(folder)
 
 
 def _fsync_tree(path: Path) -> None:
@@ -323,6 +318,7 @@ def _fsync_tree(path: Path) -> None:
 
 
 def _fsync_file(path: Path) -> None:
+    """fsync one file or folder; best effort (an error is ignored)."""
     with contextlib.suppress(OSError):
         fd = os.open(path, os.O_RDONLY)
         try:
