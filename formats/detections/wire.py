@@ -34,7 +34,7 @@ and are re-exported here.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 import numpy.typing as npt
@@ -376,6 +376,17 @@ def unique_rows(raw: U8) -> tuple[I64, I64]:
     return first.astype(np.int64), inv.ravel().astype(np.int64)
 
 
+def _distinct_by_length(j: Joined, start: I64, length: I64) -> Iterator[tuple[I64, U8, I64, I64]]:
+    """Per distinct non-empty length: (indices, bytes as rows, :func:`unique_rows` of them)."""
+    for n in np.unique(length).tolist():
+        if n == 0:
+            continue
+        sel = np.flatnonzero(length == n)
+        raw = j.buf[start[sel][:, None] + np.arange(n)]
+        first, inv = unique_rows(raw)
+        yield sel, raw, first, inv
+
+
 def string_codes(
     j: Joined,
     start: I64,
@@ -392,12 +403,7 @@ def string_codes(
     bool array as long as ``start``) is given, is flagged there and gets code 0 (``""``)."""
     names: list[str] = [""]
     codes = np.zeros(len(start), dtype=np.int64)
-    for n in np.unique(length).tolist():
-        if n == 0:
-            continue
-        sel = np.flatnonzero(length == n)
-        raw = j.buf[start[sel][:, None] + np.arange(n)]
-        first, inv = unique_rows(raw)
+    for sel, raw, first, inv in _distinct_by_length(j, start, length):
         texts: list[str] = []
         for k, i in enumerate(first.tolist()):
             try:
@@ -420,12 +426,7 @@ def hashed_strings(j: Joined, start: I64, length: I64) -> I64:
     from aion_cli.formats.detections.frame import hash_id
 
     out = np.full(len(start), -1, dtype=np.int64)
-    for n in np.unique(length).tolist():
-        if n == 0:
-            continue
-        sel = np.flatnonzero(length == n)
-        raw = j.buf[start[sel][:, None] + np.arange(n)]
-        first, inv = unique_rows(raw)
+    for sel, raw, first, inv in _distinct_by_length(j, start, length):
         hashes = np.array([hash_id(raw[i].tobytes()) for i in first.tolist()], dtype=np.int64)
         out[sel] = hashes[inv]
     return out
