@@ -46,7 +46,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from benchmarks.common import ROOT, WORK
+from benchmarks.common import ROOT, WORK, child_usage
 
 S = 10**9
 DAY0 = 1_767_607_200  # 2026-01-05 10:00 UTC, seconds
@@ -79,17 +79,8 @@ def compile_checkout(checkout: Path) -> None:
 
 def _run(cmd: list[str], env: dict[str, str]) -> tuple[float, int]:
     """(CPU seconds, peak RSS bytes) of one child, run in the folder ``env`` names."""
-    proc = subprocess.Popen(
-        cmd,
-        env={**os.environ, **env},
-        cwd=env["PYTHONPATH"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode() if proc.stderr else ""
-    if proc.returncode != 0:
+    code, err, usage = child_usage(cmd, env={**os.environ, **env}, cwd=env["PYTHONPATH"])
+    if code != 0:
         raise RuntimeError(f"{shlex.join(cmd)} failed: {err}")
     return usage.ru_utime + usage.ru_stime, usage.ru_maxrss * 1024
 

@@ -20,14 +20,14 @@ log: peak RSS should be flat in the log size and far below it.
 from __future__ import annotations
 
 import argparse
-import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
+
+from benchmarks.common import child_usage
 
 PEOPLE = 40
 TEMPLATES = 16
@@ -93,16 +93,9 @@ def build_peak_rss(log: Path, out: Path) -> dict[str, Any]:
     """Run ``aion build`` on ``log``; the child's peak RSS (bytes) and wall time."""
     aion = Path(sys.executable).with_name("aion")
     start = time.perf_counter()
-    proc = subprocess.Popen(
-        [str(aion), "build", str(log), "-o", str(out), "-q"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode() if proc.stderr else ""
-    if proc.returncode != 0:
-        raise SystemExit(f"aion build failed ({proc.returncode}): {err}")
+    code, err, usage = child_usage([str(aion), "build", str(log), "-o", str(out), "-q"])
+    if code != 0:
+        raise SystemExit(f"aion build failed ({code}): {err}")
     return {"peak_rss": usage.ru_maxrss * 1024, "seconds": time.perf_counter() - start}
 
 

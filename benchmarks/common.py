@@ -115,6 +115,19 @@ def peak_rss(target: str, timeout: float = 900.0, **kwargs: Any) -> dict[str, An
     return result
 
 
+def child_usage(cmd: list[str], **popen: Any) -> tuple[int, str, Any]:
+    """Run ``cmd`` (``popen``: more ``subprocess.Popen`` arguments; its stdout discarded) and
+    wait for it with ``os.wait4``: its exit code, its stderr, and its own ``resource``
+    usage (CPU ``ru_utime + ru_stime``; peak RSS ``ru_maxrss``, KiB on Linux)."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, **popen)
+    _, status, usage = os.wait4(proc.pid, 0)
+    err = ""
+    if proc.stderr is not None:
+        err = proc.stderr.read().decode()
+        proc.stderr.close()
+    return os.waitstatus_to_exitcode(status), err, usage
+
+
 def _child(target: str, kwargs_json: str) -> None:
     """Child side of :func:`peak_rss`: import, note the RSS, call, print one JSON line."""
     module_name, func_name = target.split(":")

@@ -8,8 +8,6 @@ child's own rusage), and continuing a map log by log must equal building from al
 from __future__ import annotations
 
 import itertools
-import os
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -35,16 +33,12 @@ from tests.robustness.conftest import (
 
 def peak_rss_of_build(log: Path, out: Path, *options: str) -> int:
     """Peak RSS (bytes) of ``aion build LOG -o OUT`` run in a subprocess."""
-    proc = subprocess.Popen(
-        [str(AION), "build", str(log), "-o", str(out), "-q", *options],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.DEVNULL,
-        env=aion_env(),
-    )
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    assert proc.returncode == 0
-    return usage.ru_maxrss * 1024
+    from benchmarks.common import child_usage
+
+    cmd = [str(AION), "build", str(log), "-o", str(out), "-q", *options]
+    code, err, usage = child_usage(cmd, env=aion_env())
+    assert code == 0, err
+    return int(usage.ru_maxrss) * 1024
 
 
 def test_peak_memory_does_not_grow_with_log_length(tmp_path: Path) -> None:
