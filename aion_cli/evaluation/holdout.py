@@ -50,6 +50,11 @@ from aion_cli.evaluation.heading import (
     association_radius,
     score_headings,
 )
+from aion_cli.evaluation.holdout_notes import (
+    held_out_notes,
+    time_warnings,
+    unobserved_hours_note,
+)
 from aion_cli.evaluation.metrics import hourly_activity
 from aion_cli.evaluation.spread import spread_of
 
@@ -145,8 +150,8 @@ def score_held_out(
     held = read_held_out(opts, state.config, watch=watch)
     result = HoldoutResult()
     result.test = _test_summary(held, state)
-    result.notes = _notes(held, loaded.manifest, state.config.sensor_range)
-    result.warnings = list(held.report.warnings) + _time_warnings(held, loaded.manifest)
+    result.notes = held_out_notes(held, loaded.manifest, state.config.sensor_range)
+    result.warnings = list(held.report.warnings) + time_warnings(held, loaded.manifest)
     result.warnings += held_out_zone_warnings(state.config.timezone, opts.logs)
     recorded = loaded.manifest.get("map_frame")
     if isinstance(recorded, str) and recorded != opts.map_frame:  # --map-frame said so
@@ -167,22 +172,10 @@ def score_held_out(
         result.warnings.append(apart)
     say("forecasting the test logs' hourly activity")
     hours = _activity(result, state, held)
-    unobserved = _unobserved_hours(loaded.manifest, hours)
+    unobserved = unobserved_hours_note(loaded.manifest, hours)
     if unobserved is not None:
         result.notes.append(unobserved)
     return result
-
-
-def _unobserved_hours(manifest: dict[str, Any], hours: list[int]) -> str | None:
-    """:func:`aion_cli.forecast_notes.unobserved_hours` of the test's hours (their starts,
-    UNIX ns): those whose hour of the day the map never observed, where aion's forecast (and
-    its hour-of-day profile) is extrapolated, not measured."""
-    if not manifest or not hours:
-        return None
-    from aion_cli.forecast_notes import unobserved_hours
-    from aion_cli.manifest import Manifest
-
-    return unobserved_hours(Manifest.from_dict({"state": {}, **manifest}), hours, "test hours")
 
 
 def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
@@ -203,51 +196,6 @@ def _test_summary(held: HeldOut, state: MapState) -> dict[str, Any]:
         "observation": held.report.observation,
         "detection_topics": list(held.report.detection_topics),
     }
-
-
-def _time_warnings(held: HeldOut, manifest: dict[str, Any]) -> list[str]:
-    """Test detections inside the map's own time span (the map learnt from that time, from
-    them too if its logs hold them, or from other people then, a dataset's split: the scores
-    are in-sample) or before it (the map is judged on the past): a warning each, as the scores
-    are then not those of a forecast."""
-    warnings: list[str] = []
-    span = manifest.get("time_span") or {}
-    start, end = span.get("start_ns"), span.get("end_ns")
-    t = held.batch.t_ns
-    if isinstance(start, int) and isinstance(end, int) and len(t):
-        inside = int(np.count_nonzero((t >= start) & (t <= end)))
-        if inside:
-            warnings.append(
-                f"{inside:,} of {len(t):,} test detections lie within the map's own time span: "
-                "the map learnt from that time (from these detections too, if its logs hold "
-                "them), so the scores are not a forecast's (build the map from logs before the "
-                "test logs only)"
-            )
-        before = int(np.count_nonzero(t < start))
-        if before:
-            warnings.append(
-                f"{before:,} of {len(t):,} test detections lie before the map's own time span: "
-                "the map learnt from later logs, so it is judged on the past, not on what it "
-                "forecasts (build the map from logs before the test logs only)"
-            )
-    return warnings
-
-
-def _notes(held: HeldOut, manifest: dict[str, Any], sensor_range: float) -> list[str]:
-    """What the reader should know about the test: the logs' own notes, windows left out of
-    the activity."""
-    notes = [n for n in held.notes if "scene graph" not in n]  # the map has its own
-    static = _all_static(manifest)
-    if static is not None:  # why the rows of aion and aion static agree
-        notes.append(f"aion's figures are those of its static rates: {static}")
-    robot = int(np.count_nonzero(~held.fixed))
-    if robot:
-        notes.append(
-            f"{robot:,} of {held.windows.size:,} test windows were observed by a moving robot: "
-            "there the activity sums the map's places within its sensor range "
-            f"({sensor_range:g} m) then"
-        )
-    return notes
 
 
 MOSTLY_APART = 0.5
@@ -280,16 +228,6 @@ def _no_overlap(aion: dict[str, Any], radius: float) -> str | None:
         "entry: the test logs are of another place or frame than the map, and every heading "
         "score of aion's is a uniform heading's"
     )
-
-
-def _all_static(manifest: dict[str, Any]) -> str | None:
-    """:func:`aion_cli.forecast_notes.all_static` of a map's manifest (None without one)."""
-    if not manifest:
-        return None
-    from aion_cli.forecast_notes import all_static
-    from aion_cli.manifest import Manifest
-
-    return all_static(Manifest.from_dict({"state": {}, **manifest}))
 
 
 def _uniform(held: HeldOut) -> dict[str, Any]:

@@ -10,7 +10,8 @@ import numpy as np
 
 from aion_cli.build_report import BuildReport
 from aion_cli.engine.types import DetectionBatch
-from aion_cli.evaluation.holdout import HoldoutResult, _activity, _notes
+from aion_cli.evaluation.holdout import HoldoutResult, _activity
+from aion_cli.evaluation.holdout_notes import held_out_notes
 from aion_cli.held_out import HeldOut
 from tests.cli.conftest import assert_one_line_error, run, run_json
 from tests.cli.test_evaluate_holdout import MONDAY, S
@@ -20,7 +21,7 @@ def test_a_window_without_coverage_is_left_out_of_the_activity() -> None:
     batch = DetectionBatch.from_arrays([MONDAY + S], [[0.0, 0.0, 0.0]], [0.0], [1.0])
     window = np.array([MONDAY // (600 * S)])
     held = HeldOut(batch, window, np.array([False]), BuildReport(Path("x.aion")))  # no seen
-    notes = _notes(held, {}, 8.0)
+    notes = held_out_notes(held, {}, 8.0)
     assert any("observed by a moving robot" in n and "(8 m)" in n for n in notes)
     result = HoldoutResult()
     _activity(result, object(), held)  # type: ignore[arg-type]  # never read: no window
