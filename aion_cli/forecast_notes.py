@@ -39,6 +39,7 @@ from aion_cli import note_words as words
 from aion_cli.bins_observed import calendar_of, hour_observed, hours_of, observed_bins
 from aion_cli.bins_observed import observed_hours as observed_hours
 from aion_cli.engine.temporal.calendar import DAY_NS
+from aion_cli.sensor_notes import recording_windows, sensor_share, silent_sensor
 
 if TYPE_CHECKING:
     from aion_cli.engine.time_text import Zone
@@ -168,9 +169,9 @@ def all_static(manifest: Manifest) -> str | None:
     )
     from aion_cli.fixed_sensor import share_text, silent_advice
 
-    share = _sensor_share(manifest)
+    share = sensor_share(manifest)
     if share is not None and share < 0.5:
-        whose = "its logs'" if _recording_windows(manifest) else "the"
+        whose = "its logs'" if recording_windows(manifest) else "the"
         text += (
             f" (its fixed sensor observed {share_text(share)} of {whose} time: only the windows in "
             f"which a log recorded a message; {silent_advice(manifest.counts)})"
@@ -317,7 +318,7 @@ def unseen_day(
     )
     from aion_cli.fixed_sensor import SILENT_HINT, silent_advice
 
-    share = _sensor_share(manifest)
+    share = sensor_share(manifest)
     # below, silent_sensor's note gives the hint; a tracker that publishes messages with
     # nobody in them is not silent: its unrecorded days were not observed
     if share is not None and share >= 0.5 and silent_advice(manifest.counts) == SILENT_HINT:
@@ -417,47 +418,6 @@ def _weekday_in(t_ns: int, shown: Zone | None) -> int:
 
 
 _NO_LOG = "no log observed "
-
-
-def _sensor_share(manifest: Manifest) -> float | None:
-    """The share of its logs' own time a fixed sensor observed (None: not a fixed sensor, or
-    one whose recording spans ``build --observed`` declared: what it observed is then what it
-    recorded, and build gives no advice for it either)."""
-    from aion_cli.fixed_sensor import DECLARED, fixed_sensor_share
-
-    if DECLARED in manifest.observation:
-        return None
-    return fixed_sensor_share(manifest.observation, _recording_windows(manifest))
-
-
-def _recording_windows(manifest: Manifest) -> int | None:
-    """How many windows the map's logs' own time spans (None: none recorded, or a damaged
-    manifest's count)."""
-    recording = manifest.counts.get("recording_windows")
-    return recording if type(recording) is int and recording > 0 else None
-
-
-def silent_sensor(manifest: Manifest) -> str | None:
-    """The note for a fixed sensor that observed less than half of its logs' own time: if its
-    tracker is silent when nobody is there, the windows observed are those with someone in
-    them, and every forecast runs high (its nights and quiet hours most); None otherwise."""
-    from aion_cli.fixed_sensor import SILENT_HINT, share_text, silent_advice
-
-    share = _sensor_share(manifest)
-    if share is None or share >= 0.5:
-        return None
-    text = (
-        f"the map's fixed sensor observed {share_text(share)} of its logs' time (only the "
-        "windows in which a log recorded a message; the rest is unknown, not empty): "
-    )
-    advice = silent_advice(manifest.counts)
-    if advice != SILENT_HINT:  # its tracker published messages with nobody in them
-        return text + advice
-    return text + (
-        "if its tracker is silent when nobody is there, the windows observed are those with "
-        "someone in them and the forecast runs high, most in quiet hours: declare the spans it "
-        "was recording with aion build --observed"
-    )
 
 
 def _unobserved_hour(manifest: Manifest, t_ns: int) -> str | None:
