@@ -194,10 +194,10 @@ def test_build_small() -> None:
 def test_build_samples_small() -> None:
     """``bench_build --sample``: the stacks of a tiny build, sampled, name the build's own
     functions among the main thread's, with shares of its samples."""
-    from benchmarks import bench_build
     from benchmarks.build_logs import ratio_log
+    from benchmarks.build_profile import sample_build
 
-    text = bench_build.sample_build(ratio_log(3, 200, 1))
+    text = sample_build(ratio_log(3, 200, 1))
     main = text.split("## main thread, inclusive\n")[1].split("##")[0].splitlines()
     assert any(line.endswith("pipeline.py:build_map") for line in main)
     shares = [float(line.split("%")[0]) for line in main]
