@@ -24,31 +24,11 @@ ROLES: tuple[Role, ...] = ("scene_graph", "detections", "tf", "tf_static", "unsu
 
 TF_TYPES = frozenset({"tf2_msgs/msg/TFMessage", "tf/msg/tfMessage"})
 
-# DESIGN.md §6, used when the detections package cannot be imported.
-_FALLBACK_DETECTION_TYPES = (
-    "spencer_tracking_msgs/msg/TrackedPersons",
-    "spencer_tracking_msgs/msg/DetectedPersons",
-    "people_msgs/msg/People",
-    "people_msgs/msg/PositionMeasurementArray",
-    "leg_tracker/msg/PersonArray",
-    "vision_msgs/msg/Detection3DArray",
-    "geometry_msgs/msg/PoseArray",
-    "geometry_msgs/msg/PoseStamped",
-    "visualization_msgs/msg/MarkerArray",
-    "pedsim_msgs/msg/AgentStates",
-    "zed_interfaces/msg/ObjectsStamped",
-    "zed_msgs/msg/ObjectsStamped",
-    "nav2_dynamic_msgs/msg/ObstacleArray",
-)
-
 
 def detection_types() -> frozenset[str]:
-    """Message types with a detection adapter: ``formats.detections.SUPPORTED_TYPES`` when that
-    package is importable, else the DESIGN.md §6 list."""
-    try:
-        from aion_cli.formats.detections import SUPPORTED_TYPES
-    except ImportError:
-        return frozenset(_FALLBACK_DETECTION_TYPES)
+    """Message types with a detection adapter: ``formats.detections.SUPPORTED_TYPES``."""
+    from aion_cli.formats.detections import SUPPORTED_TYPES
+
     return frozenset(normalize_msgtype(t) for t in SUPPORTED_TYPES)
 
 
