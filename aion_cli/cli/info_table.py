@@ -195,7 +195,8 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
             f"`aion build` cannot learn flows from this log ({safe(what)})",
             soft_wrap=True,
         )
-    if not use["scene_graph"] and not scene:
+    if not use["scene_graph"] and not scene and use["detections"]:
+        # without people to learn from, a graph would not let the build run (it refuses)
         console().print(
             "[yellow]note:[/yellow] no scene graph: build with --graph FILE or --derive-graph",
             soft_wrap=True,
