@@ -45,6 +45,7 @@ def plan(
     ``--step`` without ``--leave``."""
     from dataclasses import replace
 
+    from aion_cli.api_results import flowless_places_note
     from aion_cli.mapquery import entry_positions, nav_graph
     from aion_cli.predictions import hour_flags
     from aion_cli.routes import plan_departures, plan_routes, resolve_ends
@@ -67,10 +68,13 @@ def plan(
     graph = self._loaded.graph
     a, b = resolve_ends(start, goal, nav, graph, entry_positions(self._loaded.state))
     snapped = [s for s in (a.snapped("--from"), b.snapped("--to")) if s is not None]
+    # places without people: the temporal plan is by distance, as aion plan says
+    flowless = tuple(n for n in (flowless_places_note(self._loaded.state),) if n is not None)
     if leave is None:
         routes = plan_routes(self._loaded, a.node_id, b.node_id, t_ns, speed, nav)
         made = Plan.from_routes(routes, zone, snapped, hour_flags(self._loaded, [t_ns])[0])
-        return replace(made, notes=tuple(self._notes(time, zone, t_ns, None, "departures")))
+        notes = (*self._notes(time, zone, t_ns, None, "departures"), *flowless)
+        return replace(made, notes=notes)
 
     from aion_cli.api_results import alike_note, departure_rows
     from aion_cli.api_words import api_text
@@ -101,7 +105,9 @@ def plan(
     # instant taken, as plan --leave (and predict_series' start) say it
     changed = wall_clock_note(first, zone, times[0])
     typed = () if changed is None else (api_text(changed),)
-    notes = (*typed, *self._notes(None, zone, times[best], times, "departures"), *alike)
+    notes = (
+        *typed, *self._notes(None, zone, times[best], times, "departures"), *flowless, *alike
+    )
     return replace(made, departures=rows, notes=notes)
 
 

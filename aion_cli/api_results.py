@@ -283,6 +283,30 @@ def alike_note(rows: list[dict[str, Any]]) -> str | None:
     )
 
 
+def flowless_places_note(state: Any) -> str | None:
+    """The note for a plan over a scene graph none of whose places holds a detection (a fixed
+    sensor built with the graph of another site or frame, a derived graph whose places were
+    never stable: every detection on hash cells): the temporal plan has no flow to avoid, so
+    it is the distance-only plan, which the table showed twice without saying why. None when
+    a place holds any."""
+    from aion_cli.mapquery import detections_by_kind
+
+    on_cells, on_nodes = detections_by_kind(state)
+    if on_nodes > 0:
+        return None
+    places = 0 if state.graph is None else len(state.graph.places)
+    where = (
+        f"the map's {on_cells:,.0f} lie on hash cells, away from the places or before they "
+        "were stable"
+        if on_cells > 0
+        else "the map holds none"
+    )
+    return (
+        f"none of the scene graph's {places:,} places holds a detection ({where}): the "
+        "temporal plan has no flow to avoid: it plans by distance alone"
+    )
+
+
 class Files(list["Path"]):
     """The files :meth:`aion_cli.api.Map.export` wrote (a list of ``Path``, as before), with
     the ``notes`` ``aion export`` prints beside them on stderr, in its order: what the

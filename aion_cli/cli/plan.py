@@ -146,7 +146,7 @@ def command(
 ) -> None:
     """Plan a path on the navigational graph of MAP from A to B, departing at a time."""
     from aion_cli.api import Plan
-    from aion_cli.api_results import alike_note, departure_rows
+    from aion_cli.api_results import alike_note, departure_rows, flowless_places_note
     from aion_cli.cli.common import load, span_start_notes
     from aion_cli.cli.console import note, progress
     from aion_cli.cli.plan_departures import departure_times, print_departures
@@ -214,6 +214,9 @@ def command(
     if leave is not None and leaving:  # the start typed, read across a clock change
         for line in span_start_notes([leave], [(leaving[0], leaving[-1])], zone, "--leave"):
             note(line)
+    flowless = flowless_places_note(loaded.state)
+    if flowless is not None:  # the two plans alike, and why
+        note(flowless)
     alike = None if departures is None else alike_note(departures)
     if alike is not None:  # "best" would read as quieter
         note(alike)
