@@ -71,8 +71,9 @@ def observe(
     each have one (:meth:`aion_cli.tf_trees.TfTrees.poses`), taken instead of ``tf``'s."""
     map_frame, base_frame = frames
     traj = robot_trajectory(tf, map_frame, base_frame, report.warnings, tf_logs, own_poses)
-    if tf is not None and traj is None:
-        report.notes.append(no_trajectory(tf, map_frame, base_frame))
+    why_none = None if tf is None or traj is not None else no_trajectory(tf, map_frame, base_frame)
+    if why_none is not None:
+        report.notes.append(why_none)
     if traj is not None:
         delta = window_ns(mapper.state.config.window_s)
         # every pose's window, also a time shard's outside its part (one pass judges a group
@@ -119,8 +120,10 @@ def observe(
             report.observation += " + " + unposed
     else:
         wrong_base = wrong_base_warning(tf, map_frame, base_frame)
-        if wrong_base is not None:
+        if wrong_base is not None:  # says what the note said, and names the frame to give
             report.warnings.append(wrong_base)
+            if why_none in report.notes:
+                report.notes.remove(why_none)
         report.observation = fixed_sensor_windows(
             mapper, logset, times, report.notes, report, declared, fill, marks
         )
