@@ -349,7 +349,9 @@ class Map(Generic[Report]):
             None if series is None else [t for t in times if t is not None],
         )  # fmt: skip
         drawn = historical and ends is not None
-        files.notes = (*forecast, *written_notes(self._loaded, written, out, drawn))
+        files.notes = (
+            *forecast, *written_notes(self._loaded, written, out, drawn, ends is not None)
+        )
         return files
 
     @one_at_a_time

@@ -68,21 +68,27 @@ def refuse_combination(format: str, out: Path, path: object, series: object) -> 
 
 
 def written_notes(
-    loaded: LoadedMap, written: Exported, out: Path, drawn_as_observed: bool
+    loaded: LoadedMap, written: Exported, out: Path, drawn_as_observed: bool,
+    path_drawn: bool = False,
 ) -> list[str]:
     """The notes ``aion export`` prints after the forecast's, in its order and the API's
     words (:func:`aion_cli.api_make.warn_of`): that a path drawn as observed is the shortest
-    by distance (``drawn_as_observed``: ``historical=True`` with a ``path``), the frames of
+    by distance (``drawn_as_observed``: ``historical=True`` with a ``path``), or one drawn at
+    a time over places that hold no detection (``path_drawn``), the frames of
     an earlier series the export removed from ``out`` (:func:`aion_cli.export_stale.
     stale_note`), and a scene graph's: what the map does not store, and the detections the
     file leaves out (issued as an ``AionWarning`` instead when they are most of them)."""
     from aion_cli.api_make import warn_of
+    from aion_cli.api_results import DISTANCE_PATH, flowless_places_note
     from aion_cli.export_stale import stale_note
     from aion_cli.exports import HISTORICAL_PATH
     from aion_cli.formats.dsg_export import not_stored_note
     from aion_cli.graph_export import cells_left_out
 
     notes = [HISTORICAL_PATH] if drawn_as_observed else []
+    if path_drawn and not drawn_as_observed:  # at a time, over places without people
+        flowless = flowless_places_note(loaded.state, DISTANCE_PATH)
+        notes += [] if flowless is None else [flowless]
     stale = None if written.stale is None else stale_note(written.stale, out)
     notes += [] if stale is None else [stale]
     warnings: list[str] = []

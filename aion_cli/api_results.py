@@ -283,12 +283,19 @@ def alike_note(rows: list[dict[str, Any]]) -> str | None:
     )
 
 
-def flowless_places_note(state: Any) -> str | None:
+DISTANCE_PLAN = "the temporal plan has no flow to avoid: it plans by distance alone"
+"""What :func:`flowless_places_note` says of ``aion plan``'s temporal plan."""
+
+DISTANCE_PATH = "the path drawn has no flow to avoid: it is the shortest by distance"
+"""What it says of the path ``aion export --path-from/--path-to`` draws at a time."""
+
+
+def flowless_places_note(state: Any, said: str = DISTANCE_PLAN) -> str | None:
     """The note for a plan over a scene graph none of whose places holds a detection (a fixed
     sensor built with the graph of another site or frame, a derived graph whose places were
     never stable: every detection on hash cells): the temporal plan has no flow to avoid, so
-    it is the distance-only plan, which the table showed twice without saying why. None when
-    a place holds any."""
+    it is the distance-only plan, which the table showed twice without saying why (``said``:
+    of a path ``aion export`` draws, :data:`DISTANCE_PATH`). None when a place holds any."""
     from aion_cli.mapquery import detections_by_kind
 
     on_cells, on_nodes = detections_by_kind(state)
@@ -301,10 +308,7 @@ def flowless_places_note(state: Any) -> str | None:
         if on_cells > 0
         else "the map holds none"
     )
-    return (
-        f"none of the scene graph's {places:,} places holds a detection ({where}): the "
-        "temporal plan has no flow to avoid: it plans by distance alone"
-    )
+    return f"none of the scene graph's {places:,} places holds a detection ({where}): {said}"
 
 
 class Files(list["Path"]):

@@ -152,6 +152,7 @@ def command(
 ) -> None:
     """Export MAP as 3D scenes (PLY/PCD, MCAP over time), pictures (PNG), the 4D scene graph
     (a spark_dsg file) and tables (CSV/JSON)."""
+    from aion_cli.api_results import DISTANCE_PATH, flowless_places_note
     from aion_cli.cli.common import load
     from aion_cli.cli.console import console, note, progress, warn
     from aion_cli.cli.plan import snapped_text
@@ -237,6 +238,8 @@ def command(
         note(snapped_text(snap))
     if historical and ends is not None:
         note(HISTORICAL_PATH)
+    elif ends is not None and (flowless := flowless_places_note(loaded.state, DISTANCE_PATH)):
+        note(flowless)  # places without people: the path drawn is by distance
     console().print(_written(written, fmt, out_dir, len(times)), soft_wrap=True)
     if written.stale is not None and (said := stale_note(written.stale, out_dir)) is not None:
         note(said)

@@ -65,3 +65,27 @@ def test_map_plan_carries_the_note_as_aion_plan_prints_it(tmp_path: Path) -> Non
     assert any("it plans by distance alone" in n for n in plan.notes)
     best = aion.Map.load(out).plan("p0", "p1", leave=("2015-03-16 03:10", "2015-03-16 03:20"))
     assert any(SAID in n for n in best.notes)
+
+
+def test_an_exported_path_over_such_places_says_so_too(tmp_path: Path) -> None:
+    """``aion export --path-from/--path-to`` draws the temporal plan as plan makes it: over
+    those places it is the shortest by distance, and the export says so (Map.export's notes
+    too); with --historical it already said the path is the shortest by distance."""
+    import aion_cli as aion
+
+    log = real("logs", "leg_tracker", "positive_2_extracted.bag")
+    out = tmp_path / "legs.aion"
+    run_json("build", log, "--map-frame", "right_laser", "--derive-graph", "-o", out,
+             "--workers", "1", "--format", "json")  # fmt: skip
+    at = ("--time", "2015-03-16 03:16", "--path-from", "p0", "--path-to", "p1")
+    result = run("export", out, *at, "-o", tmp_path / "scene")
+    assert result.exit_code == 0, result.stderr
+    lines = [n for n in result.stderr.splitlines() if SAID in n]
+    assert len(lines) == 1, result.stderr
+    assert lines[0].endswith("the path drawn has no flow to avoid: it is the shortest by distance")
+    files = aion.Map.load(out).export(tmp_path / "api", time="2015-03-16 03:16", path=("p0", "p1"))
+    assert [n for n in files.notes if SAID in n] == lines
+    historical = run("export", out, "--historical", *at[2:], "-o", tmp_path / "hist")
+    assert historical.exit_code == 0, historical.stderr
+    assert SAID not in historical.stderr  # its own note says it
+    assert "the path drawn is the shortest by distance" in " ".join(historical.stderr.split())
