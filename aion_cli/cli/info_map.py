@@ -117,10 +117,15 @@ def span_with_days(length: str, start: Any, end: Any, report: dict[str, Any]) ->
     except AionError:
         return length
 
-    def when(t_ns: int) -> str:
-        return from_ns(t_ns, zone).strftime("%a %Y-%m-%d %H:%M")
+    def when(t_ns: int, cut: int) -> str:  # to the microsecond, less ``cut`` characters
+        full = from_ns(t_ns, zone).strftime("%a %Y-%m-%d %H:%M:%S.%f")
+        return full[: len(full) - cut]
 
-    return f"{length}: {when(start)} to {when(end)} {zone.name}"
+    # to the minute; a span inside one minute (a half-second leg_tracker bag read "03:16 to
+    # 03:16") to the second, or to the millisecond, where its ends first differ
+    cut = next((c for c in (10, 7) if when(start, c) != when(end, c)), 3)
+    cut = 10 if start == end else cut
+    return f"{length}: {when(start, cut)} to {when(end, cut)} {zone.name}"
 
 
 def clock_in(t_ns: int, zone: str) -> str:
