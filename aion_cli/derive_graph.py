@@ -23,6 +23,10 @@ from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.spatial_hash import hashable_indices
 from aion_cli.engine.types import GraphSnapshot, Layer
 
+DERIVED_LAYER = "derived"
+"""The layer name of a graph derived from walking people (``nav_layer`` in ``aion info
+MAP``'s JSON), which its table's graph row does not repeat."""
+
 F64 = npt.NDArray[np.float64]
 I64 = npt.NDArray[np.int64]
 
@@ -108,7 +112,7 @@ class OccupancyGrid:
             labels=tuple("" for _ in range(len(ijk))),
         )
         return GraphSnapshot(
-            t_ns=int(t_ns), places=places, edges=_neighbour_edges(ijk), layer_name="derived"
+            t_ns=int(t_ns), places=places, edges=_neighbour_edges(ijk), layer_name=DERIVED_LAYER
         )
 
 

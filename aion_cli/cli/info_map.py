@@ -194,7 +194,11 @@ def print_map(report: dict[str, Any]) -> None:
     if "windows" in counts:  # as the build's summary counted them (mapquery.state_counts)
         table.add_row("windows observed", f"{counts['windows']:,}")
     layer = report.get("nav_layer")
-    graph_text = f"{report.get('graph_source')}" + (f", places from layer {layer}" if layer else "")
+    from aion_cli.derive_graph import DERIVED_LAYER
+
+    # a derived graph's places are its own ("derived from walking people"): no layer to name
+    named = layer and layer != DERIVED_LAYER
+    graph_text = f"{report.get('graph_source')}" + (f", places from layer {layer}" if named else "")
     table.add_row("graph", safe(graph_text))
     if report.get("map_frame"):  # every position of the map is in it (build --map-frame)
         table.add_row("map frame", safe(report["map_frame"]))

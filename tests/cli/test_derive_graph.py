@@ -101,3 +101,21 @@ def test_a_graph_file_with_derive_graph_says_the_derive_graph_is_ignored(tmp_pat
     assert both["nodes"] == alone["nodes"] == 2  # the file's two places, none derived
     assert (both["bound_cells"], both["cells"]) == (alone["bound_cells"], alone["cells"])
     assert both["bound_cells"] > 0
+
+
+def test_info_of_a_derived_map_does_not_name_a_layer_it_has_not(tmp_path: Path) -> None:
+    """``aion info MAP`` of a map built with --derive-graph (the real leg_tracker bag) read
+    "graph: derived from walking people, places from layer derived": the derived graph's
+    places are its own, not a layer of a scene graph. JSON keeps ``nav_layer: derived``."""
+    from tests.cli.conftest import run, run_json
+    from tests.shared_data import real
+
+    out = tmp_path / "legs.aion"
+    log = real("logs", "leg_tracker", "positive_2_extracted.bag")
+    run_json("build", log, "--map-frame", "right_laser", "--derive-graph", "-o", out,
+             "--workers", "1", "--format", "json")  # fmt: skip
+    assert run_json("info", out, "--format", "json")["nav_layer"] == "derived"
+    shown = run("info", out)
+    assert shown.exit_code == 0, shown.stderr
+    row = next(line for line in shown.stdout.splitlines() if "│ graph" in line)
+    assert " ".join(row.replace("│", " ").split()) == "graph derived from walking people"
