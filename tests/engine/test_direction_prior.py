@@ -1,7 +1,8 @@
 """The direction prior's strength κ estimated from the map (``direction_prior = "auto"``,
 :mod:`aion_cli.engine.temporal.direction_prior`): recovered from Dirichlet-multinomial
 entries drawn with a known κ, the same to the bit in any entry order, the fallback when too
-few entries tell, and ln Γ against the standard library's."""
+few entries tell, ln Γ against the standard library's, and the likelihood the search
+maximises against its formula term by term."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from aion_cli.engine.temporal.direction_prior import (
     fitted_kappa,
     group_prior,
     log_gamma,
+    marginal_likelihood,
 )
 from aion_cli.errors import ConfigError
 
@@ -94,6 +96,43 @@ def test_log_gamma_matches_the_standard_library() -> None:
     x = np.concatenate([np.geomspace(1e-8, 1e7, 4001), np.arange(1.0, 300.0) + 0.5])
     expected = np.array([math.lgamma(v) for v in x])
     assert np.allclose(log_gamma(x), expected, rtol=1e-13, atol=1e-12)
+
+
+def _plain_likelihood(counts: np.ndarray, parent: np.ndarray, kappa: float) -> float:
+    """The module docstring's formula, one term per entry and bin, with the standard
+    library's ln Γ, summed correctly rounded."""
+    terms = []
+    for row, shares in zip(counts, parent, strict=True):
+        terms += [math.lgamma(kappa), -math.lgamma(float(row.sum()) + kappa)]
+        for n, p in zip(row, shares, strict=True):
+            terms += [math.lgamma(n + kappa * p), -math.lgamma(kappa * p)]
+    return math.fsum(terms)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.integers(1, 300),
+    st.integers(2, 12),
+    st.sampled_from([3, 40, 2000]),
+    st.floats(np.log(0.5), np.log(100.0)),
+)
+def test_the_likelihood_equals_its_formula(
+    seed: int, entries: int, bins: int, most: int, log_kappa: float
+) -> None:
+    """Distinct (count, share) pairs and totals weighted by how often they occur, ln Γ of
+    κ p once per share, numpy's pairwise sums: the value of the plain sum over every entry
+    and bin, to the accuracy of ln Γ (shares repeat, as a group's do for its entries)."""
+    rng = np.random.default_rng(seed)
+    parents = rng.dirichlet(np.full(bins, 0.7), max(entries // 7, 1))
+    parent = np.clip(parents[rng.integers(0, parents.shape[0], entries)], 1e-12, None)
+    counts = rng.integers(0, most + 1, (entries, bins)) * (rng.random((entries, bins)) < 0.6)
+    counts = counts.astype(np.float64)
+    kappa = float(np.exp(log_kappa))
+    got = marginal_likelihood(counts, parent, counts.sum(axis=1))(log_kappa)
+    want = _plain_likelihood(counts, parent, kappa)
+    scale = entries * bins * (1.0 + np.log1p(most + kappa))  # the terms' sizes
+    assert got == pytest.approx(want, rel=1e-12, abs=1e-12 * scale)
 
 
 def _own_direction_shares(direction_prior: float | str) -> np.ndarray:
