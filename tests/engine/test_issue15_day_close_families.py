@@ -151,3 +151,38 @@ def test_a_sampled_kappa_reads_each_kept_rows_own_parent(monkeypatch: pytest.Mon
     assert whole == fitted_kappa(counts[kept], parent[kept])
     # and the rows' parents matter: the same rows with the parents shifted by one row differ
     assert whole != fitted_kappa(counts[kept], np.roll(parent[kept], 1, axis=0))
+
+
+def test_kappa_and_kappa_ts_input_share_one_sample(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A pooling chooses the entries κ reads once, and κ_t's input reads the profile bins of
+    the very same entries (issue 15, stop 71): κ and κ_t are those estimated from the plain
+    inputs, each sample chosen afresh, with one entry sample fewer drawn."""
+    from aion_cli.engine.temporal import pooling
+
+    state = corridor(6, _rush, seed=3, heading=_turning).state
+    params, view = state.params, state.query_temporal()
+    rows = state.entries.canonical_order()
+    groups = np.arange(rows.size) % 3
+    for module in (direction_prior, pooling):  # a sample is drawn, wherever it is drawn
+        monkeypatch.setattr(module, "MAX_ENTRIES", rows.size // 2, raising=False)
+    drawn: list[int] = []
+    real = direction_prior.sample_rows
+
+    def counted(counts: np.ndarray, about: int, shares: np.ndarray | None = None) -> np.ndarray:
+        drawn.append(counts.shape[0])
+        return real(counts, about, shares)
+
+    for module in (direction_prior, pooling):
+        monkeypatch.setattr(module, "sample_rows", counted, raising=False)
+    pool = PoolStats.of(params, view, rows, groups, 3)
+    counts = pooling.entry_counts(view, rows)[:, : params.bins]
+    parent = pool.histogram[groups]
+    tell = np.flatnonzero(counts.sum(axis=1) >= 2)
+    assert tell.size > rows.size // 2
+    assert drawn.count(tell.size) == 1  # κ's entries, drawn once for κ and κ_t's input
+    drawn.clear()
+    assert pool.kappa == fitted_kappa(counts, parent)
+    per_bin = pooling.per_bin_directed(view, rows, counts, parent, pool.kappa, groups, pool.shift)
+    assert drawn.count(tell.size) == 2  # each chose the entries afresh
+    assert pool.kappa_t == fitted_kappa(*per_bin, direction_prior.TIME_FALLBACK,
+                                        direction_prior.TIME_KAPPA_LOW)

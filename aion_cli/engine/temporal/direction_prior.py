@@ -32,7 +32,7 @@ import numpy.typing as npt
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.row_sums import row_sums
-from aion_cli.engine.types import F64
+from aion_cli.engine.types import F64, I64
 
 AUTO = "auto"
 """``direction_prior = "auto"``: κ estimated from the map (the default)."""
@@ -68,13 +68,20 @@ def group_prior(config: ModelConfig) -> float:
     return GROUP_PRIOR if isinstance(value, str) else float(value)
 
 
-def entry_prior(config: ModelConfig, directed: Callable[[], tuple[F64, F64]]) -> float:
+def entry_prior(
+    config: ModelConfig,
+    directed: Callable[[], tuple[F64, F64]],
+    telling: Callable[[F64, F64], I64] | None = None,
+) -> float:
     """κ of entries toward their parents: the configured number, or with ``"auto"`` the
     estimate from ``directed()``: N[e, b] (directed detections) and p[e, b] (each entry's
-    parent histogram), gathered only then (a fixed κ needs neither)."""
+    parent histogram), gathered only then (a fixed κ needs neither). ``telling``: the
+    :func:`telling_rows` of those, when the caller chooses them once for κ_t's input too."""
     value = config.direction_prior
     if isinstance(value, str):
-        return fitted_kappa(*directed())
+        counts, parent = directed()
+        rows = None if telling is None else telling(counts, parent)
+        return fitted_kappa(counts, parent, rows=rows)
     return float(value)
 
 
@@ -94,22 +101,22 @@ def time_prior(config: ModelConfig, per_bin: Callable[[], tuple[F64, F64]]) -> f
 
 
 def fitted_kappa(
-    counts: F64, parent: F64, fallback: float = FALLBACK, low: float = KAPPA_RANGE[0]
+    counts: F64,
+    parent: F64,
+    fallback: float = FALLBACK,
+    low: float = KAPPA_RANGE[0],
+    rows: I64 | None = None,
 ) -> float:
     """The maximum marginal likelihood κ (module docstring) in [``low``, the top of
     :data:`KAPPA_RANGE`], found by golden-section search on ln κ (numpy only: no ``scipy``
     import on a query's path); ``fallback`` with fewer than :data:`MIN_ENTRIES` rows of two
-    detections or more."""
+    detections or more. ``rows``: :func:`telling_rows` of ``counts`` and ``parent``, when
+    the caller has them."""
     n = row_sums(counts)
-    tell = n >= 2
-    if int(tell.sum()) < MIN_ENTRIES:
+    if int(np.count_nonzero(n >= 2)) < MIN_ENTRIES:
         return fallback
-    kept = np.flatnonzero(tell)
+    kept = telling_rows(counts, parent, n) if rows is None else rows
     c = np.asarray(counts, np.float64)[kept]
-    if c.shape[0] > MAX_ENTRIES:
-        # chosen by counts and parent shares (sample_rows), the shares of the telling rows
-        keep = sample_rows(c, MAX_ENTRIES, np.asarray(parent, np.float64)[kept])
-        kept, c = kept[keep], c[keep]
     # the parents' shares of the rows kept only (elementwise: the same values as clipping
     # every telling row first; issue 15: κ_t's rows are an entry's profile bins, ~45,000)
     p = np.clip(np.asarray(parent, np.float64)[kept], 1e-12, None)
@@ -117,6 +124,21 @@ def fitted_kappa(
     log_likelihood = marginal_likelihood(c, p, n)
     lo, hi = float(np.log(low)), float(np.log(KAPPA_RANGE[1]))
     return float(np.exp(_golden_max(log_likelihood, lo, hi, 0.03)))
+
+
+def telling_rows(counts: F64, parent: F64, totals: F64 | None = None) -> I64:
+    """The rows of ``counts`` that tell κ (two detections or more; ``totals``: their row
+    sums, when the caller has them), about :data:`MAX_ENTRIES` of them when there are more,
+    chosen by their counts and parent shares (:func:`sample_rows`: the same rows in any
+    order). κ_t's input is the profile bins of the very entries κ's estimate reads
+    (``pooling.per_bin_directed``): a pooling chooses them once for both (issue 15)."""
+    n = row_sums(counts) if totals is None else totals
+    kept = np.flatnonzero(n >= 2)
+    if kept.size > MAX_ENTRIES:
+        # chosen by counts and parent shares (sample_rows), the shares of the telling rows
+        c, p = (np.asarray(a, np.float64)[kept] for a in (counts, parent))
+        kept = kept[sample_rows(c, MAX_ENTRIES, p)]
+    return kept
 
 
 def marginal_likelihood(counts: F64, parent: F64, totals: F64) -> Callable[[float], float]:

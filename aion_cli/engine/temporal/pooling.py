@@ -9,6 +9,7 @@ counts exactly in integer accumulators, for the pooling and for the forecaster a
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -18,11 +19,10 @@ from aion_cli.engine.row_sums import row_sums
 from aion_cli.engine.temporal.accumulators import TemporalState
 from aion_cli.engine.temporal.direction_prior import (
     FALLBACK,
-    MAX_ENTRIES,
     TIME_FALLBACK,
     entry_prior,
     group_prior,
-    sample_rows,
+    telling_rows,
     time_prior,
 )
 from aion_cli.engine.temporal.group_shift import GroupShift, group_hourly, hourly_priors
@@ -129,13 +129,21 @@ class PoolStats:
         shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
         histograms = _group_histograms(group_prior(params.config), c_g)
 
+        @cache  # gathered once for κ and κ_t's input
         def directed_counts() -> tuple[F64, F64]:
             if counts is not None:
                 return counts[:, :b], histograms[groups]
             held = np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
             return held, histograms[groups]
 
-        kappa = priors.kappa if priors is not None else entry_prior(params.config, directed_counts)
+        @cache  # κ's rows are the entries of κ_t's input: chosen once (issue 15)
+        def told() -> I64:
+            return telling_rows(*directed_counts())
+
+        kappa = (
+            priors.kappa if priors is not None
+            else entry_prior(params.config, directed_counts, lambda *_: told())
+        )
         unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
         shift = None
         if hourly is not None:
@@ -144,7 +152,8 @@ class PoolStats:
             shift = GroupShift.of(hourly, histograms, unseen, per_day, kappa_g)
 
         def per_bin() -> tuple[F64, F64]:
-            return per_bin_directed(state, rows, *directed_counts(), kappa, groups, shift)
+            directed, parent = directed_counts()
+            return per_bin_directed(state, rows, directed, parent, kappa, groups, shift, told())
 
         kappa_t = priors.kappa_t if priors is not None else time_prior(params.config, per_bin)
         return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen, shift)
@@ -246,6 +255,7 @@ def per_bin_directed(
     kappa: float,
     groups: I64 | None = None,
     shift: GroupShift | None = None,
+    tell: I64 | None = None,
 ) -> tuple[F64, F64]:
     """The input of κ_t's estimate: N[(e, h), b], the directed detections of entry ``e``
     (of ``rows``) in profile bin ``h``, and the prior its hour's histogram shrinks toward on
@@ -253,11 +263,11 @@ def per_bin_directed(
     pseudo-detections of ``parent``, as ``Forecaster.histogram``), modulated by its group's
     (``groups``) hourly ``shift`` when there is one (:func:`.group_shift.hour_prior`); for
     about ``MAX_ENTRIES`` of the entries with two directed detections or more, chosen by
-    their counts (any order of the entries gives the same rows)."""
+    their counts (any order of the entries gives the same rows): ``tell``, the rows
+    :func:`.direction_prior.telling_rows` chooses, when the caller has them."""
     b = directed.shape[1]
-    tell = np.flatnonzero(directed.sum(axis=1) >= 2)
-    if tell.size > MAX_ENTRIES:
-        tell = tell[sample_rows(directed[tell], MAX_ENTRIES, parent[tell])]
+    if tell is None:
+        tell = telling_rows(directed, parent)
     per_bin = np.asarray(rows_of(state.cnt_profile, rows[tell]), np.float64)[:, :b]
     static = posterior(directed[tell], parent[tell], kappa)
     if shift is not None and groups is not None:
