@@ -24,7 +24,7 @@ from aion_cli.engine.temporal.calendar_view import pooled_view
 from aion_cli.engine.temporal.params import TemporalParams
 from aion_cli.engine.temporal.pending import DayWindows
 from aion_cli.engine.temporal.pool_priors import PoolPriors
-from aion_cli.engine.temporal.pooling import PoolStats, entry_sums
+from aion_cli.engine.temporal.pooling import entry_counts, pooled_priors
 
 if TYPE_CHECKING:
     from aion_cli.engine.state import MapState
@@ -42,10 +42,8 @@ def view_priors(state: MapState) -> PoolPriors:
     t = state.temporal
     with absorbed(state.params, t, parts, state.window_ns):
         params, view = pooled_view(state.params, t)  # the calendar the forecast reads
-        counts, totals = entry_sums(view, rows)
-        pool = PoolStats.of(params, view, rows, groups, n_groups, counts, totals)
-    kappa_g = None if pool.shift is None else pool.shift.kappa
-    return PoolPriors(pool.kappa, pool.kappa_t, kappa_g, int(rows.size), int(n_groups))
+        # the pooling's priors alone: not the groups' shapes, which they do not read
+        return pooled_priors(params, view, rows, groups, n_groups, entry_counts(view, rows))
 
 
 @contextmanager

@@ -8,6 +8,7 @@ counts exactly in integer accumulators, for the pooling and for the forecaster a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -128,35 +129,83 @@ class PoolStats:
         phi = overdispersion(state.window_chi2)
         shapes, map_shape = group_shapes(s_g, w_g, phi, params.calendar.bins_per_day)
         histograms = _group_histograms(group_prior(params.config), c_g)
-
-        @cache  # gathered once for κ and κ_t's input
-        def directed_counts() -> tuple[F64, F64]:
-            if counts is not None:
-                return counts[:, :b], histograms[groups]
-            held = np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
-            return held, histograms[groups]
-
-        @cache  # κ's rows are the entries of κ_t's input: chosen once (issue 15)
-        def told() -> I64:
-            return telling_rows(*directed_counts())
-
-        kappa = (
-            priors.kappa if priors is not None
-            else entry_prior(params.config, directed_counts, lambda *_: told())
-        )
         unseen = unseen_bins(w_g.sum(axis=0), params.calendar.bins_per_day)
-        shift = None
-        if hourly is not None:
-            per_day = params.calendar.bins_per_day
-            kappa_g = None if priors is None else priors.kappa_g
-            shift = GroupShift.of(hourly, histograms, unseen, per_day, kappa_g)
 
-        def per_bin() -> tuple[F64, F64]:
-            directed, parent = directed_counts()
-            return per_bin_directed(state, rows, directed, parent, kappa, groups, shift, told())
+        def all_directed() -> F64:
+            if counts is not None:
+                return counts[:, :b]
+            return np.concatenate(directed_blocks) if directed_blocks else np.zeros((0, b))
 
-        kappa_t = priors.kappa_t if priors is not None else time_prior(params.config, per_bin)
+        pooled = (params, state, rows, groups, histograms, unseen, hourly)
+        kappa, kappa_t, shift = _estimates(*pooled, all_directed, priors)
         return cls(shapes, histograms, map_shape, kept, kappa, kappa_t, unseen, shift)
+
+
+def pooled_priors(
+    params: TemporalParams, state: TemporalState, rows: I64, groups: I64, n_groups: int,
+    counts: F64,
+) -> PoolPriors:
+    """κ, κ_t and κ_G as :meth:`PoolStats.of` estimates them over the same entries
+    (``counts``: their :func:`entry_counts`), without what only a forecast reads: the
+    groups' periodic shapes and their detections per profile bin (what a map's writer
+    stores, :mod:`~aion_cli.engine.view_priors`; issue 15, stop 71). The groups' directed
+    counts and the map's windows per profile bin are sums of whole numbers, the same in any
+    grouping: summed here over all the entries at once, not per group and block."""
+    b = params.bins
+    timed = bool(params.direction_enabled[1:].any())  # families after ``static``
+    hourly = group_hourly(state.cnt_profile, rows, groups, n_groups, b) if timed else None
+    directed = counts[:, :b]
+    c_g = group_sums(groups, n_groups, directed)
+    histograms = _group_histograms(group_prior(params.config), c_g)
+    windows = rows.size * state.glob.profile[0]
+    for a in range(0, rows.size, _POOL_BLOCK):
+        windows = windows + rows_of(state.obs.profile, rows[a : a + _POOL_BLOCK]).sum(axis=0)
+    unseen = unseen_bins(windows, params.calendar.bins_per_day)
+    pooled = (params, state, rows, groups, histograms, unseen, hourly)
+    kappa, kappa_t, shift = _estimates(*pooled, lambda: directed, None)
+    kappa_g = None if shift is None else shift.kappa
+    return PoolPriors(kappa, kappa_t, kappa_g, int(rows.size), int(n_groups))
+
+
+def _estimates(
+    params: TemporalParams,
+    state: TemporalState,
+    rows: I64,
+    groups: I64,
+    histograms: F64,
+    unseen: npt.NDArray[np.bool_] | None,
+    hourly: F64 | None,
+    directed: Callable[[], F64],
+    priors: PoolPriors | None,
+) -> tuple[float, float, GroupShift | None]:
+    """κ, κ_t and the groups' shift (κ_G) of a pooling: taken from ``priors`` when given,
+    else estimated from the entries' directed counts ``directed()`` (gathered only then)
+    around their groups' ``histograms``, and the groups' ``hourly`` counts (None: no
+    time-varying direction family, no shift)."""
+
+    @cache  # gathered once for κ and κ_t's input
+    def directed_counts() -> tuple[F64, F64]:
+        return directed(), histograms[groups]
+
+    @cache  # κ's rows are the entries of κ_t's input: chosen once (issue 15)
+    def told() -> I64:
+        return telling_rows(*directed_counts())
+
+    kappa = (
+        priors.kappa if priors is not None
+        else entry_prior(params.config, directed_counts, lambda *_: told())
+    )
+    shift = None
+    if hourly is not None:
+        kappa_g = None if priors is None else priors.kappa_g
+        shift = GroupShift.of(hourly, histograms, unseen, params.calendar.bins_per_day, kappa_g)
+
+    def per_bin() -> tuple[F64, F64]:
+        counts, parent = directed_counts()
+        return per_bin_directed(state, rows, counts, parent, kappa, groups, shift, told())
+
+    kappa_t = priors.kappa_t if priors is not None else time_prior(params.config, per_bin)
+    return kappa, kappa_t, shift
 
 
 def entry_counts(state: TemporalState, rows: I64, block: int = 1 << 10) -> F64:
