@@ -97,11 +97,11 @@ def held_ground(state: MapState) -> HeldGround:
     they hold."""
     import numpy as np
 
-    from aion_cli.engine.entries import NODE
+    from aion_cli.engine.entries import NODE, held_detections
 
     entries = state.entries
     live = entries.live_rows()
-    held = entries.counts[live].sum(axis=1) + entries.nodir[live]
+    held = held_detections(entries, live)
     nodes = np.unique(entries.node_id[live[entries.kind[live] == NODE]])
     return entries.xyz[live].copy(), nodes, float(held.sum())
 
@@ -119,14 +119,14 @@ def new_ground_warning(state: MapState, ground: HeldGround, name: str) -> str | 
     detection."""
     import numpy as np
 
-    from aion_cli.engine.entries import NODE
+    from aion_cli.engine.entries import NODE, held_detections
     from aion_cli.engine.nearest import horizontal_tree
     from aion_cli.fixed_sensor_text import share_text
 
     held_xyz, held_nodes, held_total = ground
     entries = state.entries
     live = entries.live_rows()
-    per_row = entries.counts[live].sum(axis=1) + entries.nodir[live]
+    per_row = held_detections(entries, live)
     new = float(per_row.sum()) - held_total
     if len(held_xyz) == 0 or new <= 0:
         return None

@@ -21,6 +21,7 @@ from aion_cli.engine.types import I64, GraphSnapshot
 from aion_cli.errors import InputError, MapFileError
 
 if TYPE_CHECKING:
+    from aion_cli.engine.entries import HeldCounts
     from aion_cli.engine.state import MapState
 
 
@@ -202,21 +203,22 @@ def state_counts(state: MapState) -> dict[str, int]:
     }
 
 
-def entries_with_detections(entries: Any, rows: I64) -> int:
+def entries_with_detections(entries: HeldCounts, rows: I64) -> int:
     """How many of ``rows`` hold a detection (a node's entry may hold only the windows in
-    which the robot saw nobody there)."""
-    held = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
-    return int(np.count_nonzero(held > 0))
+    which the robot saw nobody there); ``entries``: a store or any entries with its counts."""
+    from aion_cli.engine.entries import held_detections
+
+    return int(np.count_nonzero(held_detections(entries, rows) > 0))
 
 
 def detections_by_kind(state: MapState) -> tuple[float, float]:
     """(detections on unbound hash cells, detections on graph nodes) of a state."""
+    from aion_cli.engine.entries import held_detections
+
     entries = state.entries
-
-    def detections(rows: I64) -> float:
-        return float(entries.counts[rows].sum() + entries.nodir[rows].sum())
-
-    return detections(entries.cell_rows()), detections(entries.node_rows())
+    on_cells = held_detections(entries, entries.cell_rows()).sum()
+    on_nodes = held_detections(entries, entries.node_rows()).sum()
+    return float(on_cells), float(on_nodes)
 
 
 def nav_graph(loaded: LoadedMap) -> Any:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -79,6 +79,26 @@ def add_rows(array: F64, rows: I64 | slice, values: npt.NDArray[Any]) -> None:
     part = array.take(rows, axis=0)
     part += values
     array[rows] = part
+
+
+class HeldCounts(Protocol):
+    """What :func:`held_detections` reads: an :class:`EntryStore`, or any entries with its
+    cumulative ``counts[E,B]`` and ``nodir[E]`` (the DSG export's checks are given such
+    entries without a store around them)."""
+
+    @property
+    def counts(self) -> F64: ...
+
+    @property
+    def nodir(self) -> F64: ...
+
+
+def held_detections(entries: HeldCounts, rows: I64 | slice) -> F64:
+    """The detections each of ``rows`` holds, directed (every direction bin) and undirected,
+    the open window's included: the one place that sum is written (``sum()`` of it: the
+    detections of all of ``rows``). :meth:`EntryStore.window_totals` is the open window's."""
+    out: F64 = entries.counts[rows].sum(axis=1) + entries.nodir[rows]
+    return out
 
 
 @dataclass
@@ -396,8 +416,9 @@ class EntryStore:
 
     # -- views and export -------------------------------------------------------------------
     def total_count(self) -> float:
-        """Sum of every detection count over live entries (directed + undirected)."""
-        return float(self.counts[: self.n].sum() + self.nodir[: self.n].sum())
+        """Sum of every detection count over live entries (directed + undirected; a freed
+        row holds none)."""
+        return float(held_detections(self, slice(0, self.n)).sum())
 
     def to_arrays(self, order: I64, prefix: str = "entry_") -> dict[str, np.ndarray]:
         """Plain arrays of the given live rows, in that order."""

@@ -251,7 +251,7 @@ def _entry_problems(state: MapState) -> list[str]:
     orphans = ~np.isin(ent.node_id[:n][kind == NODE], state.nodes.ids)
     if orphans.any():
         out.append(f"{int(orphans.sum())} node entries belong to no node of the node table")
-    total = float(ent.counts[:n].sum() + ent.nodir[:n].sum())
+    total = ent.total_count()
     if abs(total - state.accepted) > 0.5 + _COUNT_SLACK * max(total, 1.0):
         out.append(f"the entries hold {total:g} detections but the map accepted {state.accepted}")
     return out

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from aion_cli.engine.config import ModelConfig
 from aion_cli.engine.descriptors import bin_of
-from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins
+from aion_cli.engine.entries import CELL, FREE, NODE, EntryStore, direction_bins, held_detections
 from aion_cli.engine.routing import RouteTable
 from aion_cli.engine.spatial_hash import pack_keys
 from aion_cli.engine.state import MapState
@@ -97,6 +97,25 @@ def test_clear_window_keeps_cumulative_counts() -> None:
     store.clear_window()
     np.testing.assert_array_equal(store.window_totals(np.array([0, 1])), [0, 0])
     assert store.total_count() == 3
+
+
+def test_held_detections_counts_directed_and_undirected_of_any_entries() -> None:
+    """One sum for an entry's detections, for a store and for entries that are not one (the
+    DSG export's checks are given such entries: a method of the store failed there)."""
+    from types import SimpleNamespace
+
+    from aion_cli.mapquery import entries_with_detections
+
+    store = _store(4)
+    # row 0: two directed; row 1: one undirected; row 2: one of each; row 3: none
+    store.accumulate(np.array([0, 0, 1, 2, 2]), np.array([1, 6, -1, 3, -1]), np.full(5, 1.0))
+    store.clear_window()  # the cumulative counts, not the open window's
+    rows = np.array([3, 2, 1, 0])
+    np.testing.assert_array_equal(held_detections(store, rows), [0, 2, 1, 2])
+    assert held_detections(store, slice(0, 4)).sum() == store.total_count() == 5
+    plain = SimpleNamespace(counts=store.counts[:4].copy(), nodir=store.nodir[:4].copy())
+    np.testing.assert_array_equal(held_detections(plain, rows), [0, 2, 1, 2])
+    assert entries_with_detections(store, rows) == entries_with_detections(plain, rows) == 3
 
 
 def test_delete_frees_rows_for_reuse_and_grows_by_doubling() -> None:
