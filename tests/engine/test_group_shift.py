@@ -138,3 +138,37 @@ def test_a_kind_of_day_never_observed_adds_no_detections_to_a_group() -> None:
     assert 2.0 < shift.kappa < 4.0
     assert shift.telling.tolist() == [True] * 6 + [False] * 6
     assert np.array_equal(shift.telling, alone.telling)
+
+
+def test_kappa_g_counts_a_never_observed_kind_of_day_as_no_evidence() -> None:
+    """κ_G is fitted on the (group, hour) rows observed. A map of weekdays only whose three
+    groups keep to the hour on six (group, hour) rows, 20 detections each: too few rows to
+    estimate κ_G from (``MIN_ENTRIES``: 10), so no shift, as the same weekdays in a profile
+    of one kind of day have none; the weekend's copies of those six rows (``by_hour``) made
+    twelve, and a shift. And where the weekend was observed 10-14 h (half east, half west:
+    no hour there) κ_G is the one of the same observed rows laid out without a bin unseen
+    (28 "hours"), not weighed toward the weekday's hours the copies repeat."""
+    few = np.zeros((3, B, H))
+    few[:, 0, 9] = 20.0  # east at 09:00
+    few[:, 4, 18] = 20.0  # west at 18:00
+    hist = _histogram(few)
+    unseen = np.arange(2 * H) >= H
+    assert GroupShift.of(few, hist, None, H) is None
+    assert GroupShift.of(np.concatenate([few, np.zeros_like(few)], axis=2), hist, unseen, H) is None
+
+    rng = np.random.default_rng(8)
+    weekdays = _hourly(True, 12, 40, rng)
+    weekend = np.zeros_like(weekdays)
+    weekend[:, :, 10:14] = _hourly(False, 12, 40, rng)[:, :, 10:14]
+    hourly = np.concatenate([weekdays, weekend], axis=2)  # [G, B, 2H]
+    hist = _histogram(hourly)
+    seen = np.r_[np.arange(H), H + np.arange(10, 14)]
+    unseen = np.ones(2 * H, bool)
+    unseen[seen] = False
+    shift = GroupShift.of(hourly, hist, unseen, H)
+    laid_out = GroupShift.of(hourly[:, :, seen], hist, None, H)
+    assert shift is not None
+    assert laid_out is not None
+    assert shift.kappa == laid_out.kappa
+    # the unseen weekend hours still take the weekday's hour for their shift
+    np.testing.assert_array_equal(shift.ratio[:, H + 9], shift.ratio[:, 9])

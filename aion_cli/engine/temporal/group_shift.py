@@ -18,7 +18,13 @@ each entry's own directions: a cell of the group's east-west corridor takes the 
 east, a cell of its north-south one the morning's north.
 
 κ_G is the Dirichlet-multinomial estimate of :func:`.direction_prior.fitted_kappa` over the
-(group, profile bin) rows around their group's histogram, as κ_t is over an entry's. Where no
+(group, profile bin) rows around their group's histogram, as κ_t is over an entry's: over the
+rows observed only. A kind of day no window observed takes, for its shift, the counts of its
+hour on the kinds that were (:func:`.shape_prior.by_hour`), but those are the same
+detections again (a copy, or a sum of the seen rows), not draws of their own: the marginal
+likelihood of a bin without windows is 1 (no counts), and counting the copies would weigh the
+copied hours twice and let a map pass :data:`.direction_prior.MIN_ENTRIES` on half as many
+rows as it holds (stop 71). Where no
 group's directions keep to the hour the likelihood keeps rising to the top of the range: the
 map then has no shift (``None``) and every forecast is the one before (the static histogram
 is the prior, as it was). The shift is recomputed from the accumulators wherever the groups'
@@ -67,13 +73,16 @@ class GroupShift:
         ``kappa``: κ_G as estimated from these counts before (a map stores it:
         :mod:`.pool_priors`), or None to estimate it."""
         g, b, h = hourly.shape
-        counts = by_hour(hourly, unseen, bins_per_day).transpose(0, 2, 1)  # [G, H, B]
-        rows = counts.reshape(-1, b)
         parent = np.repeat(histogram, h, axis=0)
         if kappa is None:
-            kappa = fitted_kappa(rows, parent, fallback=KAPPA_RANGE[1], low=TIME_KAPPA_LOW)
+            # the rows observed only: an unseen bin's copy of the seen hours (``by_hour``)
+            # is no draw of its own, and would count them twice (module docstring)
+            own = hourly.transpose(0, 2, 1).reshape(-1, b)
+            kappa = fitted_kappa(own, parent, fallback=KAPPA_RANGE[1], low=TIME_KAPPA_LOW)
         if kappa >= _NO_SHIFT:
             return None
+        counts = by_hour(hourly, unseen, bins_per_day).transpose(0, 2, 1)  # [G, H, B]
+        rows = counts.reshape(-1, b)
         total = row_sums(rows, keepdims=True)
         shrunk = (rows + kappa * parent) / (total + kappa)
         ratio = np.divide(shrunk, parent, out=np.ones_like(shrunk), where=parent > 0)
