@@ -134,7 +134,10 @@ class Map(Generic[Report]):
         """A map around a state built in memory (``engine.mapper.Mapper(...).state``), e.g. to
         :meth:`save` it; its scene graph and manifest (its queries' notes; its time span, the log
         times fed: :func:`aion_cli.api_state.state_span`) are the state's now: wrap it again after
-        feeding more. A loaded map's state is refused: its queries count its pending day and
+        feeding more. A fixed sensor's windows after its last detection count as observed, as
+        ``aion build`` of its log counts them: the map is then of a copy advanced to its
+        intervals' end (:func:`aion_cli.api_state.observed_to_end`), the Mapper's state left
+        as it was. A loaded map's state is refused: its queries count its pending day and
         open window as closed, in place (:meth:`save` copies a loaded map)."""
         from aion_cli.api_state import state_map
 

@@ -28,7 +28,8 @@ def state_map(state: object, timezone: object) -> LoadedMap:
     ``MapState`` that can be written (not a loaded map's), its zone a name every query
     reads; its scene graph is the state's latest, and its manifest the one :meth:`Map.save`
     writes (:func:`state_manifest`), so its queries answer with the notes and
-    ``hour_observed`` the saved map's give (before: none, and None)."""
+    ``hour_observed`` the saved map's give (before: none, and None). The state as its
+    fixed sensor's end leaves it (:func:`observed_to_end`)."""
     from aion_cli.api_checks import zone_name
     from aion_cli.engine.state import MapState
     from aion_cli.mapquery import LoadedMap, latest_graph
@@ -49,7 +50,36 @@ def state_map(state: object, timezone: object) -> LoadedMap:
         from aion_cli.timeparse import resolve_zone
 
         name = resolve_zone(name).name
+    state = observed_to_end(state)
     return LoadedMap(state, latest_graph(state), state_manifest(state, name).to_dict())
+
+
+def observed_to_end(state: MapState) -> MapState:
+    """The state as ``aion build`` leaves it at the end of its log: log time advanced
+    (``Mapper.advance``) to the last instant its fixed-sensor intervals declare observed, so
+    the windows watched after the last detection count as observed and empty, as a build
+    counts them (it advances to its log's last message); unless they were, a map of a
+    sensor watching 10:00-11:00 whose last detection came at 10:20 counted two windows
+    observed, and its saved copy the same, where the build of its log counted six. A copy
+    is advanced (the caller's state may still be fed, earlier times included); the state
+    itself when it has no such window left open."""
+    import copy
+
+    import numpy as np
+
+    from aion_cli.engine.mapper import Mapper
+    from aion_cli.engine.windows import window_index
+
+    _, ends = state.observation.merged_fixed()
+    if ends.size == 0:
+        return state
+    last = int(ends[-1]) - 1  # [start, end): its last instant
+    window = int(window_index(np.int64(last), state.window_ns))
+    if state.open_window is not None and window <= state.open_window:
+        return state
+    advanced = copy.deepcopy(state)
+    Mapper(advanced.config, advanced).advance(last)
+    return advanced
 
 
 def copy_map(file: PinnedFile, target: Path) -> None:
@@ -102,15 +132,16 @@ def state_manifest(state: MapState, timezone: str | None) -> Manifest:
 def state_span(state: MapState) -> tuple[int | None, int | None]:
     """The span of log time a state fed in memory knows (what a build records as its logs'
     ``time_span``, for the notes of queries far from it): from the earliest time fed
-    (``first_time_ns``) or fixed-sensor interval to the latest (``log_time_ns``) or interval
-    end; ``(None, None)`` when it knows no start or no end (a state read from a file
+    (``first_time_ns``) or fixed-sensor interval to the latest (``log_time_ns``) or the last
+    instant of an interval ``[start, end)`` (``end - 1``, as a build records a declared
+    span's end); ``(None, None)`` when it knows no start or no end (a state read from a file
     and continued keeps no first time)."""
-    observed = state.observation
     starts = [] if state.first_time_ns is None else [int(state.first_time_ns)]
     ends = [] if state.log_time_ns is None else [int(state.log_time_ns)]
-    if observed.fixed_start.size:
-        starts.append(int(observed.fixed_start.min()))
-        ends.append(int(observed.fixed_end.max()))
+    fixed_start, fixed_end = state.observation.merged_fixed()  # (empty intervals left out)
+    if fixed_start.size:
+        starts.append(int(fixed_start[0]))
+        ends.append(int(fixed_end[-1]) - 1)
     if not starts or not ends:
         return None, None
     return min(starts), max(ends)

@@ -101,3 +101,52 @@ def test_a_saved_in_memory_map_records_the_span_a_log_built_map_records(tmp_path
     for m in (mem, saved):
         assert (m.manifest.start_ns, m.manifest.end_ns) == (int(t[0]), int(t[-1]))
         assert [n for n in m.predict(later).notes if "after the map's data" in n] == said
+
+
+def test_a_fixed_sensor_fed_in_memory_is_the_map_its_log_builds(tmp_path: Path) -> None:
+    """A fixed sensor recording 10:00-11:00 whose detections stop at 10:20 (its tracker
+    publishes empty messages after): ``aion build`` of its log counts the six windows
+    observed, the last four empty, as it advances to the log's end. The same detections fed
+    to a Mapper declared watching 10:00-11:00 and wrapped by ``Map.from_state`` counted two
+    (the windows up to the last detection: the later ones were never closed) unless the
+    Mapper was advanced by hand; now the saved map holds the same state members as the
+    built one, and its manifest the same span and counts. The Mapper's own state is not
+    advanced: it still takes a detection at 10:30."""
+    import zipfile
+
+    from tests.cli.conftest import run
+
+    t = T0 + np.arange(0, 1200, 10) * 10**9
+    x = np.linspace(0, 5, len(t))
+    csv = tmp_path / "tracks.csv"
+    rows = [f"{int(ti)},1,{xi:.6f},0,0,0,1" for ti, xi in zip(t, x, strict=True)]
+    csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "\n".join(rows) + "\n")
+    log = tmp_path / "tracks.mcap"
+    hour = f"{T0 // 10**9}..{T0 // 10**9 + 3600}"
+    assert run("convert", csv, "-o", log, "--observed", hour).exit_code == 0
+    built = tmp_path / "built.aion"
+    result = run("build", log, "-o", built, "--tz", "UTC", "-q")
+    assert result.exit_code == 0, result.stderr
+
+    mapper = Mapper(ModelConfig())
+    mapper.set_fixed_sensor(T0, T0 + 3600 * 10**9)
+    n = len(t)
+    xyz = np.c_[x, np.zeros(n), np.zeros(n)]
+    mapper.add_detections(DetectionBatch.from_arrays(t, xyz, np.zeros(n), np.ones(n)))
+    open_window = mapper.state.open_window
+    mem = aion.Map.from_state(mapper.state, timezone="UTC").save(tmp_path / "mem.aion")
+
+    with zipfile.ZipFile(built) as a, zipfile.ZipFile(mem) as b:
+        assert sorted(a.namelist()) == sorted(b.namelist())
+        differ = [m for m in a.namelist() if m != "manifest.json" and a.read(m) != b.read(m)]
+    assert differ == []
+    one, two = aion.Map.load(built).manifest, aion.Map.load(mem).manifest
+    assert (one.start_ns, one.end_ns) == (two.start_ns, two.end_ns) == (T0, T0 + 3600 * 10**9 - 1)
+    assert one.counts["windows"] == two.counts["windows"] == 6
+    assert {k: two.counts[k] for k in one.counts if k in two.counts} == {
+        k: one.counts[k] for k in two.counts if k in one.counts
+    }
+    assert mapper.state.open_window == open_window
+    later = DetectionBatch.from_arrays(np.array([T0 + 1800 * 10**9]), xyz[:1], np.zeros(1))
+    assert mapper.add_detections(later)["before_window"] == 0  # accepted, not dropped
+    assert mapper.state.accepted == n + 1
