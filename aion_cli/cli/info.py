@@ -48,9 +48,11 @@ roles{role: [topics of its types, used or not]}, dsg_versions,
 will_use{detections, scene_graph, tf}, cannot_read, warnings,
 fixed_sensor{windows_with_messages, span_windows, recorded_windows (the windows with messages,
 each a log starts or ends inside counted for the part recorded, as build counts them),
-recorded_s (the same in seconds), window_s, hours_with_messages, empty_in_first_messages (of
-the first 20 per detection topic)} (only when the logs have no TF, and no scene graph or a
-first one without robot poses in its agent layer: build observes the windows with messages),
+recorded_s (the same in seconds: the build's count, each log's first and last
+message placed to a 60th of a window; the logs' own time is the recorded_s above), window_s,
+hours_with_messages, empty_in_first_messages (of the first 20 per detection topic)} (only
+when the logs have no TF, and no scene graph or a first one without robot poses in its agent
+layer: build observes the windows with messages),
 frames_without_tf{topic: [frames of its first messages, in each log, that the log's TF does
 not connect to 'map']} (aion_cli.frame_check: a build would need --map-frame),
 tf_roots{frame: the frame at the top of its TF tree, for those frames that TF knows (the

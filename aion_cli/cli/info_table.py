@@ -12,6 +12,7 @@ from typing import Any
 
 from aion_cli.cli.info_frames import print_frame_notes
 from aion_cli.cli.output import human_size
+from aion_cli.number_text import significant
 
 
 def _steps(report: dict[str, Any], zone: str) -> str:
@@ -59,15 +60,44 @@ def rate_text(hz: float) -> str:
 
 
 def _seconds_text(seconds: float) -> str:
-    """A time for the header: seconds, a long one also in days or hours."""
+    """A time for the header: seconds, a long one also in days or hours, one under a second
+    to two significant digits (a 0.48 s bag read "0.5 s", one of 0.03 s "0.0 s")."""
     from aion_cli.cli.build_summary import span_text
 
+    if 0 < seconds < 1:
+        return f"{significant(seconds, 2)} s"
     readable = ""
     if seconds >= 2 * 86400:
         readable = f" = {seconds / 86400:,.1f} days"
     elif seconds >= 3600:
         readable = f" = {span_text(seconds)}"
     return f"{seconds:,.1f} s{readable}"
+
+
+def _recorded_text(fixed: dict[str, Any], count: int, report: dict[str, Any]) -> str:
+    """What a fixed-sensor log's windows recorded, when it started or ended inside one: the
+    share ``build`` counts (``recorded_windows``, its first and last message placed to
+    steps of a 60th of a window) and, when the logs hold less than that, their own time
+    (the report's ``recorded_s``): a 0.48 s bag was said to have recorded 10 s, the step the
+    build counts it as."""
+    from aion_cli.fixed_sensor import EDGE_STEPS
+    from aion_cli.fixed_sensor_text import time_text
+
+    counted = float(fixed["recorded_s"])
+    text = (
+        f", {fixed['recorded_windows']:g} of {'it' if count == 1 else 'them'} counted as "
+        f"recorded ({time_text(round(counted * 1e9))}"
+    )
+    own_s = report.get("recorded_s")
+    if isinstance(own_s, int | float) and own_s < counted:
+        own = f"{significant(own_s, 2)} s" if own_s < 1 else time_text(round(own_s * 1e9))
+        several = int(report.get("recordings") or 1) > 1
+        text += f"; the log{'s hold' if several else ' holds'} {own}"
+    step = time_text(round(float(fixed["window_s"]) / EDGE_STEPS * 1e9))
+    return text + (
+        f": build places a log's first and last message to steps of {step}, and a log that "
+        "starts or ends inside a window observes only the part it recorded)"
+    )
 
 
 def _unread_text(report: dict[str, Any]) -> str:
@@ -204,7 +234,7 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
     print_frame_notes(report)
     fixed = report.get("fixed_sensor")
     if fixed and fixed["span_windows"]:
-        from aion_cli.fixed_sensor_text import share_text, time_text
+        from aion_cli.fixed_sensor_text import share_text
 
         share = fixed["windows_with_messages"] / fixed["span_windows"]
         why = (
@@ -222,11 +252,7 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
         if isinstance(recorded, int | float) and isinstance(seconds, int | float) \
                 and recorded < count:
             # a log that starts or ends inside a window recorded only that part of it
-            text += (
-                f", {recorded:g} of {'it' if count == 1 else 'them'} recorded "
-                f"({time_text(round(seconds * 1e9))}: a log that starts or ends inside a "
-                "window observes only the part it recorded)"
-            )
+            text += _recorded_text(fixed, count, report)
         if fixed["span_windows"] > 1:  # a span inside one window is that window, all of it
             text += f", {share_text(share)} of its span"
         empty = int(fixed.get("empty_in_first_messages") or 0)

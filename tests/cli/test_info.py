@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from tests.cli.conftest import (
     Office,
     assert_one_line_error,
@@ -97,8 +99,37 @@ def test_a_log_shorter_than_a_window_is_not_called_a_whole_window(tmp_path: Path
     assert fixed["recorded_s"] == round(float(built) * 600, 1)
     note = " ".join(run("info", log).stderr.split())
     assert f"over the 1 window of 10 min with messages, {fixed['recorded_windows']:g} of it " \
-        f"recorded ({round(fixed['recorded_s'] / 60, 1):g} min: " in note
+        f"counted as recorded ({round(fixed['recorded_s'] / 60, 1):g} min" in note
     assert "100%" not in note
+
+
+@pytest.mark.parametrize("name", ["positive_1_extracted.bag", "positive_2_extracted.bag"])
+def test_a_bag_under_a_second_says_the_time_it_holds(name: str) -> None:
+    """leg_tracker's bags hold 0.48 s and 0.27 s of messages (rosbags reads their first and
+    last message): info's header said "duration: 0.5 s" / "0.3 s" and its fixed-sensor note
+    "0.02 of it recorded (10 s: ...)", the 10-second step the build places a log's ends to.
+    The note now says the build counts 10 s and the log holds what it holds; the JSON keeps
+    the build's count (the map is unchanged)."""
+    from rosbags.rosbag1 import Reader
+
+    from aion_cli.number_text import significant
+    from tests.shared_data import real
+
+    bag = real("logs", "leg_tracker", name)
+    with Reader(bag) as reader:
+        times = [t for _, t, _ in reader.messages()]
+    held = (max(times) - min(times)) / 1e9
+    assert held < 1.0
+    doc = run_json("info", bag, "--format", "json")
+    assert doc["recorded_s"] == pytest.approx(held, abs=1e-6)
+    fixed = doc["fixed_sensor"]
+    assert (fixed["recorded_windows"], fixed["recorded_s"]) == (0.02, 10.0)  # the build's
+    shown = " ".join(run("info", bag).stdout.split() + run("info", bag).stderr.split())
+    said = f"{significant(held, 2)} s"  # two significant digits: 0.48 s, 0.27 s
+    assert f"duration: {said} (" in shown
+    assert f"0.02 of it counted as recorded (10 s; the log holds {said}: build places a " \
+        "log's first and last message to steps of 10 s" in shown
+    assert "of it recorded (10 s" not in shown
 
 
 def test_a_scene_graph_without_robot_poses_and_no_tf_is_a_fixed_sensor(tmp_path: Path) -> None:
