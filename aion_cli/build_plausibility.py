@@ -13,25 +13,29 @@ report and the rules over the detections read per topic.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
     from aion_cli.build_report import BuildReport
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import F64, U64
-
-    HeldGround = tuple[F64, U64, float]
-    """:func:`held_ground`: entry positions, place ids, detections."""
 
 __all__ = [
     "FAR_FROM_GRAPH_SHARE",
     "FAST_PEOPLE_WARNING",
     "NEW_GROUND_SHARE",
     "PLAUSIBLE_SPEED_M_S",
+    "Ground",
     "far_from_graph_of",
     "far_from_graph_warning",
     "fast_people_warning",
     "held_ground",
+    "merge_ground_warning",
     "new_ground_warning",
 ]
 
@@ -90,55 +94,98 @@ stop 70): a simulated day of the office continuing the office sample's map leave
 an ETH-UCY hotel log, 85 %, a THÖR log, 63 %. Not a refusal: a robot may explore new ground."""
 
 
-def held_ground(state: MapState) -> HeldGround:
+@dataclass(frozen=True)
+class Ground:
+    """Where a map holds its detections, as :func:`new_ground_warning` and
+    :func:`merge_ground_warning` compare maps: the positions of its live entries, the node
+    id of each (0 for a hash cell: ``is_node`` says which are places) and the detections
+    each holds. A few arrays per entry, no state: a merge keeps one per input map while it
+    reads their states one at a time."""
+
+    xyz: F64
+    node_id: U64
+    is_node: NDArray[np.bool_]
+    detections: F64
+
+    @classmethod
+    def of(cls, state: MapState) -> Ground:
+        """The ground of ``state`` as it is now (copies: the state may change after)."""
+        import numpy as np
+
+        from aion_cli.engine.entries import NODE, held_detections
+
+        entries = state.entries
+        live = entries.live_rows()
+        held = held_detections(entries, live)
+        return cls(
+            entries.xyz[live].copy(),
+            entries.node_id[live].copy(),
+            entries.kind[live] == NODE,
+            np.asarray(held, np.float64),
+        )
+
+    @classmethod
+    def joined(cls, grounds: Sequence[Ground]) -> Ground:
+        """The ground of several maps at once (their entries side by side)."""
+        import numpy as np
+
+        return cls(
+            np.concatenate([g.xyz.reshape(-1, 3) for g in grounds]),
+            np.concatenate([g.node_id for g in grounds]),
+            np.concatenate([g.is_node for g in grounds]),
+            np.concatenate([g.detections for g in grounds]),
+        )
+
+    @property
+    def total(self) -> float:
+        """Every detection it holds."""
+        return float(self.detections.sum())
+
+    def away_from(self, held: Ground, reach: float, *, by_id: bool = True) -> float:
+        """The detections of this ground that lie away from every entry of ``held``: on
+        cells farther than ``reach`` (``bind_radius``: within it a cell joins a place) from
+        each, or on places farther than twice that (a place gathers the cells within reach of
+        it) and, with ``by_id`` (node ids of one scene-graph session name one place wherever
+        it moved), of ids ``held`` has no place of."""
+        import numpy as np
+
+        from aion_cli.engine.nearest import horizontal_tree
+
+        if len(held.xyz) == 0:
+            return self.total
+        distance, _ = horizontal_tree(held.xyz).query(
+            self.xyz[:, :2], distance_upper_bound=2 * reach
+        )
+        near = distance <= np.where(self.is_node, 2 * reach, reach)
+        if by_id:
+            places = np.unique(held.node_id[held.is_node])
+            near |= self.is_node & np.isin(self.node_id, places)
+        return float(self.detections[~near].sum())
+
+
+def held_ground(state: MapState) -> Ground:
     """What :func:`new_ground_warning` compares a continuing build's result with, taken from
-    the continued map before the logs go into it: the positions of its live entries, the ids
-    of its places (a place moves with the graph, its detections with it) and the detections
-    they hold."""
-    import numpy as np
-
-    from aion_cli.engine.entries import NODE, held_detections
-
-    entries = state.entries
-    live = entries.live_rows()
-    held = held_detections(entries, live)
-    nodes = np.unique(entries.node_id[live[entries.kind[live] == NODE]])
-    return entries.xyz[live].copy(), nodes, float(held.sum())
+    the continued map before the logs go into it (:meth:`Ground.of`)."""
+    return Ground.of(state)
 
 
-def new_ground_warning(state: MapState, ground: HeldGround, name: str) -> str | None:
+def new_ground_warning(state: MapState, ground: Ground, name: str) -> str | None:
     """A warning when more than :data:`NEW_GROUND_SHARE` of the detections a build added to
     the continued map ``name`` (``ground``: its :func:`held_ground`) lie away from every
-    entry it held: on cells farther than ``bind_radius`` (the reach within which a cell joins
-    a place) from each of its entries, or places (none of its own) farther than twice that (a
-    place gathers the cells within ``bind_radius`` of it, a released one's among them when
-    the map is bound to another session's graph). Such an entry held none of the continued
-    map's detections (cells never move; places are known by id), so its detections are all
-    new, and the new logs are most likely of another place, which ``--map`` joins as if
-    one. None when the map held no entry or the build added no
+    entry it held (:meth:`Ground.away_from`: on cells farther than ``bind_radius`` from each
+    of its entries, or on places, none of its own, farther than twice that). Such an entry
+    held none of the continued map's detections (cells never move; places are known by id),
+    so its detections are all new, and the new logs are most likely of another place, which
+    ``--map`` joins as if one. None when the map held no entry or the build added no
     detection."""
-    import numpy as np
-
-    from aion_cli.engine.entries import NODE, held_detections
-    from aion_cli.engine.nearest import horizontal_tree
     from aion_cli.fixed_sensor_text import share_text
 
-    held_xyz, held_nodes, held_total = ground
-    entries = state.entries
-    live = entries.live_rows()
-    per_row = held_detections(entries, live)
-    new = float(per_row.sum()) - held_total
-    if len(held_xyz) == 0 or new <= 0:
+    result = Ground.of(state)
+    new = result.total - ground.total
+    if len(ground.xyz) == 0 or new <= 0:
         return None
     reach = state.config.bind_radius
-    node = entries.kind[live] == NODE
-    distance, _ = horizontal_tree(held_xyz).query(
-        entries.xyz[live, :2], distance_upper_bound=2 * reach
-    )
-    held = (distance <= np.where(node, 2 * reach, reach)) | (
-        node & np.isin(entries.node_id[live], held_nodes)
-    )
-    away = float(per_row[~held].sum())
+    away = result.away_from(ground, reach)
     share = min(away / new, 1.0)
     if share <= NEW_GROUND_SHARE:
         return None
@@ -148,6 +195,39 @@ def new_ground_warning(state: MapState, ground: HeldGround, name: str) -> str | 
         "are the logs of another place? --map is for more logs of the same place: build "
         "another place's logs into a map of their own (aion merge joins maps that share "
         "a frame)"
+    )
+
+
+def merge_ground_warning(
+    grounds: Sequence[tuple[str, Ground]], reach: float, *, by_id: bool
+) -> str | None:
+    """A warning when more than :data:`NEW_GROUND_SHARE` of some input map's detections lie
+    away from every entry of the other maps of a merge (``grounds``: each map's name and
+    :class:`Ground` before the merge; ``reach``: ``bind_radius``; ``by_id``: the maps' node
+    ids name one session's places, lineage ``"same"``), as ``aion build LOG --map OLD``
+    warns of logs away from OLD: maps of another place, or of one place recorded in another
+    frame (Lincoln's 2017-05-31, turned by 171°), which ``aion merge`` adds as if their
+    positions were one frame. Names each such map with its share; None when none is, or
+    fewer than two maps hold detections."""
+    from aion_cli.fixed_sensor_text import share_text
+
+    holding = [(name, g) for name, g in grounds if g.total > 0]
+    if len(holding) < 2:
+        return None
+    away: list[str] = []
+    for k, (name, ground) in enumerate(holding):  # one tree query per map, not per entry
+        others = Ground.joined([g for j, (_, g) in enumerate(holding) if j != k])
+        share = ground.away_from(others, reach, by_id=by_id) / ground.total
+        if share > NEW_GROUND_SHARE:
+            away.append(f"{share_text(share)} of the {ground.total:,.0f} of {name}")
+    if not away:
+        return None
+    which = "the other map" if len(holding) == 2 else "every other map"
+    return (
+        f"most detections of a map lie farther than {reach:g} m (bind_radius) from every "
+        f"entry of {which} ({'; '.join(away)}): are the maps of another place, or of one "
+        "place in another frame? aion merge adds positions as they are: put every log in "
+        "one frame (align it) before building, or keep another place's map apart"
     )
 
 

@@ -283,6 +283,7 @@ def _fold(
     holds the merged map and the one being added, whatever the number of maps. ``config``:
     the config every map takes (fixed-sensor maps that differ only in their robot exposure
     settings, :func:`~aion_cli.merge_config.check_compatible`), None: they share theirs."""
+    from aion_cli.build_plausibility import Ground, merge_ground_warning
     from aion_cli.engine.graph_arrays import file_graph_time
     from aion_cli.engine.merge import merge_maps
     from aion_cli.engine.rebind import release_all
@@ -306,12 +307,14 @@ def _fold(
     tally = ApproximationTally(report.lineage)
     pairs: list[str] = []
     joins: list[str] = []
+    grounds: list[tuple[str, Ground]] = []  # where each map holds its detections, as read
     sink.start("merging", len(maps), "maps")
     acc: MapState | None = None
     for k, m in enumerate(maps):
         state = m.load()
         if config is not None:
             adopt_config(state, config)
+        grounds.append((m.name, Ground.of(state)))
         if report.lineage == "different":
             report.released += release_all(state)
         late = maps[k + 1] if k + 1 < len(maps) else None
@@ -353,6 +356,8 @@ def _fold(
             f"{report.released} node entries released to the hash cells at their places"
         )
     report.notes.extend(pairs + tally.notes(parts=report.parts > 0) + joins)
+    away = merge_ground_warning(grounds, acc.config.bind_radius, by_id=report.lineage == "same")
+    report.warnings.extend([] if away is None else [away])  # another place, another frame
     return acc
 
 

@@ -85,7 +85,7 @@ from aion_cli.topic_mappable import no_detection_topic
 from aion_cli.topics import TopicPlan
 
 if TYPE_CHECKING:
-    from aion_cli.build_plausibility import HeldGround
+    from aion_cli.build_plausibility import Ground
     from aion_cli.engine.mapper import Mapper
     from aion_cli.engine.state import MapState
     from aion_cli.engine.types import I64
@@ -141,7 +141,7 @@ class _Build(ReadStep):
         self._marks = NO_MARKS  # the times of the messages that only mark spans
         self._part_total: int | None = None  # a time shard's messages to stream
         self._map_open: int | None = None  # a continued map's open window when loaded
-        self._held: HeldGround | None = None  # its entries before (build_plausibility)
+        self._held: Ground | None = None  # its entries before (build_plausibility)
         self._tally = MapperTally(0)  # what the Mapper accepted and dropped, per topic
 
     def _graph_feed(self) -> GraphFeed:
