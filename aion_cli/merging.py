@@ -33,7 +33,9 @@ atomically with a manifest that accounts for every log (:mod:`aion_cli.merge_wri
 * **Target graph.** ``graph_file`` (a Hydra ``dsg.json`` / ``.sparkdsg``, read as ``aion
   build --graph FILE`` reads it) replaces the merged graph in either lineage (nodes it lacks
   release to hash cells, cells in reach of its nodes bind); without it, a ``"different"``
-  merge binds to the newest input map's latest graph and a ``"same"`` one keeps it.
+  merge binds to the newest input map's latest graph and a ``"same"`` one keeps it, but for
+  maps whose spans overlap, which keep what one build of their logs does: of one session the
+  union of their latest graphs, of two the newest of them (:mod:`aion_cli.merge_graph`).
 * **One part map.** A part map (``aion build --part``) holds its days unscored; merged alone
   (``aion merge PART.aion -o MAP.aion``) its days are scored in time order, which makes it the
   map one build of its logs gives. An ordinary map alone is refused (nothing to merge).
@@ -395,15 +397,12 @@ def _bind_target(
     """Bind the merged map to its target graph (see the module docstring) and say where its
     graph comes from."""
     from aion_cli.engine.rebind import bind_to_graph
+    from aion_cli.merge_graph import merged_graph
 
-    newest = next((m for m in reversed(maps) if m.graph is not None), None)
-    if target is None and report.lineage == "different" and newest is not None:
-        target = newest.graph
-        report.graph_source = f"{newest.name}'s latest graph"
-    elif target is not None and graph_file is not None:
+    if target is not None and graph_file is not None:
         report.graph_source = f"file {graph_file.name}"
-    elif maps[-1].graph is not None:
-        report.graph_source = f"{maps[-1].name}'s latest graph"
+    else:  # the newest graph, or one session's maps at once: their union (as one build)
+        target, report.graph_source = merged_graph(maps, report.lineage, merged.graph)
     if target is None:
         return
     t_ns = merged.log_time_ns

@@ -15,8 +15,8 @@ TF per robot; ``tests/test_fleet_track_ids.py``: track ids per robot;
   gives the one build's map; its scene graphs of the map's session are a later graph stream
   that replaces the map's graph (as a later log of the map's own robot does), where the one
   build joins both robots' graphs (by design; README *Several robots' scene graphs*). The
-  merge holds the one build's entries for TF and track ids; for one session's graphs it keeps
-  the later map's graph (a same-lineage merge keeps the newest graph).
+  merge holds the one build's entries for TF and track ids, and for one session's graphs the
+  one build's union of both robots' graphs (:mod:`aion_cli.merge_graph`).
 """
 
 from __future__ import annotations
@@ -128,8 +128,9 @@ def test_graph_robot_joining_in_the_open_window(tmp_path: Path) -> None:
     robots' graphs (all seven places; every detection on its place's node). The continued
     map learns robot 2's log after robot 1's: robot 2's graphs replace the map's, and p5,
     which robot 2 never mapped, leaves it: robot 1's person's flow is released to a hash
-    cell. The merge keeps the later map's graph (robot 2's) too. By design: a map's graph
-    and a later log's graphs are one stream (README *Several robots' scene graphs*)."""
+    cell (by design: a map's graph and a later log's graphs are one stream, README *Several
+    robots' scene graphs*). The merge of the robots' maps, whose spans overlap, keeps the one
+    build's union (:mod:`aion_cli.merge_graph`)."""
     one = graphs.write_robot(tmp_path / "robot1.mcap", PLACES, PLACES[5][:2], track=1)
     two = graphs.write_robot(tmp_path / "robot2.mcap", PART, PLACES[4][:2], track=1,
                              offset_s=30, seconds=range(900, 2100))
@@ -137,7 +138,7 @@ def test_graph_robot_joining_in_the_open_window(tmp_path: Path) -> None:
     _continue(maps, two)
     every = sorted(sym("p", k) for k in PLACES)
     for name, places, on_p5 in (("both", every, 1200), ("cont", every[:5], 0),
-                                ("merged", every[:5], 0)):
+                                ("merged", every, 1200)):
         state = load_map(maps[name]).state
         assert state.graph is not None
         assert sorted(np.asarray(state.graph.places.ids).tolist()) == places, name
@@ -145,3 +146,4 @@ def test_graph_robot_joining_in_the_open_window(tmp_path: Path) -> None:
         total = got["counts"].sum(axis=1)
         assert total[got["node_id"] == sym("p", 5)].sum() == on_p5, name
         assert total.sum() == 2 * graphs.DURATION_S, name
+    _assert_same_entries(maps["both"], maps["merged"])  # the union's entries too

@@ -28,9 +28,11 @@ the logs at once for maps of one scene-graph session, but for the approximations
 name). Maps from different scene-graph sessions (node ids reused at unrelated positions;
 --lineage auto finds them from the graphs) first release every place's state to the hash
 cells at its position; the merged cells then bind to the target graph (--graph FILE, else
-the newest map's), its places taken as stable at the merge time. The output lists every
-input log and the maps it was merged from; an existing map at -o is replaced atomically,
-anything else is refused.
+the newest map's), its places taken as stable at the merge time. Maps whose times overlap
+(robots at once) keep the graph one build of their logs keeps: one session's graphs joined
+(graph_source says which). A map most of whose detections lie away from the other maps'
+(another place, another frame) is warned of. The output lists every input log and the maps
+it was merged from; an existing map at -o is replaced atomically, anything else is refused.
 
 \b
 JSON keys (--format json): map, map_bytes, inputs[{path, name, size, sha256, start_ns,
