@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 
     from aion_cli.build_report import BuildReport
     from aion_cli.engine.state import MapState
-    from aion_cli.engine.types import F64, U64
+    from aion_cli.engine.types import F64, I64, U64
 
 __all__ = [
     "FAR_FROM_GRAPH_SHARE",
@@ -31,6 +31,7 @@ __all__ = [
     "NEW_GROUND_SHARE",
     "PLAUSIBLE_SPEED_M_S",
     "Ground",
+    "away_by_map",
     "far_from_graph_of",
     "far_from_graph_warning",
     "fast_people_warning",
@@ -142,25 +143,89 @@ class Ground:
         return float(self.detections.sum())
 
     def away_from(self, held: Ground, reach: float, *, by_id: bool = True) -> float:
-        """The detections of this ground that lie away from every entry of ``held``: on
-        cells farther than ``reach`` (``bind_radius``: within it a cell joins a place) from
-        each, or on places farther than twice that (a place gathers the cells within reach of
-        it) and, with ``by_id`` (node ids of one scene-graph session name one place wherever
-        it moved), of ids ``held`` has no place of."""
-        import numpy as np
+        """The detections of this ground that lie away from every entry of ``held``
+        (:func:`away_by_map` of the two)."""
+        return float(away_by_map([held, self], reach, by_id=by_id)[1])
 
-        from aion_cli.engine.nearest import horizontal_tree
 
-        if len(held.xyz) == 0:
-            return self.total
-        distance, _ = horizontal_tree(held.xyz).query(
-            self.xyz[:, :2], distance_upper_bound=2 * reach
-        )
-        near = distance <= np.where(self.is_node, 2 * reach, reach)
-        if by_id:
-            places = np.unique(held.node_id[held.is_node])
-            near |= self.is_node & np.isin(self.node_id, places)
-        return float(self.detections[~near].sum())
+#: neighbours looked up at once per entry by :func:`away_by_map`; an entry whose this many
+#: nearest are all its own map's and within its reach is looked up with a ball (a cell has
+#: up to 13 cell centres within 1 m; 4, 8 and 16 measured alike, docs/BENCHMARKS.md)
+_NEIGHBOURS = 8
+
+
+def away_by_map(grounds: Sequence[Ground], reach: float, *, by_id: bool = True) -> F64:
+    """Per ground, the detections it holds away from every entry of the other grounds: on
+    cells farther than ``reach`` (``bind_radius``: within it a cell joins a place) from each,
+    or on places 2 ``reach`` or farther (a place gathers the cells within reach of it) and,
+    with ``by_id`` (node ids of one scene-graph session name one place wherever it moved),
+    of ids no other ground has a place of. One KD-tree of every entry and one query of its
+    nearest few per entry (the cost of one ground against all others is not paid per
+    ground: a merge of 30 maps would build 30 trees of all the others); an entry whose few
+    nearest are all its own ground's, within its reach, is looked up in full."""
+    import numpy as np
+
+    every = Ground.joined(grounds)
+    n = len(every.detections)
+    owner = np.repeat(np.arange(len(grounds)), [len(g.detections) for g in grounds])
+    near = np.zeros(n, bool)
+    if n and len(grounds) > 1:
+        near = _near_another(every, owner, reach)
+    if by_id and every.is_node.any():
+        ids = every.node_id[every.is_node]
+        whose = owner[every.is_node].astype(np.uint64)  # uint64 beside the ids, no floats
+        pairs = np.unique(np.column_stack([ids, whose]), axis=0)
+        uniq, maps_of = np.unique(pairs[:, 0], return_counts=True)
+        sole = pairs[np.isin(pairs[:, 0], uniq[maps_of == 1])]  # ids one ground alone holds
+        alone = np.isin(ids, sole[:, 0])
+        sole_owner = np.zeros(len(ids), np.int64)
+        sole_owner[alone] = sole[np.searchsorted(sole[:, 0], ids[alone]), 1].astype(np.int64)
+        shared = ~alone | (sole_owner != whose.astype(np.int64))
+        near[np.flatnonzero(every.is_node)[shared]] = True
+    away = np.where(near, 0.0, every.detections)
+    return np.bincount(owner, weights=away, minlength=len(grounds)).astype(np.float64)
+
+
+def _near_another(every: Ground, owner: I64, reach: float) -> NDArray[np.bool_]:
+    """Per entry of ``every`` (``owner``: its ground), whether an entry of another ground lies
+    within its reach (:func:`away_by_map`). Entries at one position are one point of the
+    tree (maps of one place share their cells' centres): a position that two grounds hold is
+    near for both, and only the positions one ground alone holds are looked up."""
+    import numpy as np
+
+    from aion_cli.engine.nearest import horizontal_tree
+
+    xy = np.ascontiguousarray(every.xyz[:, :2])
+    order = np.lexsort((owner, xy[:, 1], xy[:, 0]))  # by position, then ground
+    ranked = xy[order]
+    starts = np.ones(len(order), bool)
+    starts[1:] = (ranked[1:] != ranked[:-1]).any(axis=1)
+    at_point = np.empty(len(order), np.int64)
+    at_point[order] = np.cumsum(starts) - 1
+    points = ranked[starts]
+    first, last = owner[order][starts], owner[order][np.r_[starts[1:], True]]
+    sole = np.where(first == last, first, -1)  # the one ground holding a point; -1: several
+    near = sole[at_point] == -1
+    rows = np.flatnonzero(~near)
+    if rows.size == 0 or len(points) == 1:
+        return near
+    bound = np.where(every.is_node[rows], 2 * reach, reach)
+    k = min(_NEIGHBOURS, len(points))
+    tree = horizontal_tree(points)
+    dist, at = tree.query(xy[rows], k=k, distance_upper_bound=2 * reach)  # < 2 reach
+    dist, at = dist.reshape(rows.size, k), at.reshape(rows.size, k)
+    found = at < len(points)
+    other = found & (sole[np.minimum(at, len(points) - 1)] != owner[rows, None])
+    near[rows] = (other & (dist <= bound[:, None])).any(axis=1)
+    more = ~near[rows] & found[:, -1] & (dist[:, -1] <= bound)  # more past the k-th
+    if more.any():
+        ask = rows[more]
+        radius = np.where(every.is_node[ask], np.nextafter(2 * reach, 0), reach)
+        sizes = tree.query_ball_point(xy[ask], radius, return_length=True)
+        hits = np.concatenate(tree.query_ball_point(xy[ask], radius)).astype(np.int64)
+        row = np.repeat(ask, sizes)
+        near[np.unique(row[sole[hits] != owner[row]])] = True
+    return near
 
 
 def held_ground(state: MapState) -> Ground:
@@ -214,12 +279,12 @@ def merge_ground_warning(
     holding = [(name, g) for name, g in grounds if g.total > 0]
     if len(holding) < 2:
         return None
-    away: list[str] = []
-    for k, (name, ground) in enumerate(holding):  # one tree query per map, not per entry
-        others = Ground.joined([g for j, (_, g) in enumerate(holding) if j != k])
-        share = ground.away_from(others, reach, by_id=by_id) / ground.total
-        if share > NEW_GROUND_SHARE:
-            away.append(f"{share_text(share)} of the {ground.total:,.0f} of {name}")
+    apart = away_by_map([g for _, g in holding], reach, by_id=by_id)
+    away = [
+        f"{share_text(a / g.total)} of the {g.total:,.0f} of {name}"
+        for (name, g), a in zip(holding, apart, strict=True)
+        if a / g.total > NEW_GROUND_SHARE
+    ]
     if not away:
         return None
     which = "the other map" if len(holding) == 2 else "every other map"

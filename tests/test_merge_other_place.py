@@ -14,7 +14,7 @@ import pytest
 
 import aion_cli as aion
 from aion_cli.build_options import BuildOptions
-from aion_cli.build_plausibility import NEW_GROUND_SHARE
+from aion_cli.build_plausibility import NEW_GROUND_SHARE, Ground, away_by_map
 from aion_cli.errors import AionWarning
 from aion_cli.merging import merge_map_files
 from aion_cli.pipeline import build_map
@@ -96,3 +96,31 @@ def test_a_shifted_copy_is_warned_of_by_the_api_too(tmp_path: Path) -> None:
     assert len(warned) == 1, [str(w.message) for w in caught]
     assert "100% of the 120 of here.aion; 100% of the 120 of far.aion" in warned[0]
     assert "from every entry of the other map" in warned[0]
+
+
+def test_away_by_map_is_the_distance_rule_entry_by_entry() -> None:
+    """``away_by_map`` (one tree of every entry, the positions two maps share looked up once)
+    against the rule written out for each entry and every entry of the other maps: cells
+    within 1 m, places within 2 m (strictly) or of an id another map has a place of."""
+    rng = np.random.default_rng(5)
+    for trial in range(4):
+        grounds = []
+        for k in range(3):
+            m = 300
+            xy = (np.floor(rng.uniform(0, 12, (m, 2)) / 0.5) + 0.5) * 0.5
+            xy += (k == 2) * (2.0 + trial)  # the third map shifted, more each trial
+            node = rng.uniform(size=m) < 0.3
+            ids = np.where(node, rng.integers(1, 60, m), 0).astype(np.uint64)
+            grounds.append(Ground(np.column_stack([xy, np.zeros(m)]), ids, node,
+                                  rng.uniform(0, 5, m)))
+        for by_id in (True, False):
+            got = away_by_map(grounds, 1.0, by_id=by_id)
+            for k, g in enumerate(grounds):
+                others = [o for j, o in enumerate(grounds) if j != k]
+                oxy = np.vstack([o.xyz[:, :2] for o in others])
+                d = np.hypot(*(g.xyz[:, None, :2] - oxy[None]).transpose(2, 0, 1)).min(axis=1)
+                near = np.where(g.is_node, d < 2.0, d <= 1.0)
+                if by_id:
+                    places = np.concatenate([o.node_id[o.is_node] for o in others])
+                    near |= g.is_node & np.isin(g.node_id, places)
+                assert got[k] == pytest.approx(g.detections[~near].sum(), abs=1e-9)
