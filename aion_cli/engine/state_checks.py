@@ -218,9 +218,15 @@ def _first_far(name: str, values: np.ndarray, cell_size: float) -> str | None:
 
 def _far_problems(state: MapState) -> list[str]:
     """The positions of a loaded state beyond the spatial hash's range (:func:`_first_far`):
-    its entries' and its robot poses', which the queries hash, group and measure."""
+    its entries' and its robot poses', which the queries hash, group and measure, and its
+    scene graph's places and node table's (positions and reference positions), which a build
+    refuses (``ownership.check_graph``: a place may be released into a cell), so no map aion
+    writes holds one (stop 71: a map's places were not checked on reading)."""
     size, n = state.config.cell_size, state.entries.n
-    members = (("entry_xyz", state.entries.xyz[:n]), ("obs_pose_xy", state.observation.pose_xy))
+    members = [("entry_xyz", state.entries.xyz[:n]), ("obs_pose_xy", state.observation.pose_xy)]
+    if state.graph is not None:
+        members.append(("graph_places_xyz", state.graph.places.xyz))
+    members += [("node_xyz", state.nodes.xyz), ("node_ref_xyz", state.nodes.ref_xyz)]
     return [p for name, v in members if (p := _first_far(name, v, size)) is not None]
 
 

@@ -316,3 +316,42 @@ def test_a_place_far_beyond_the_hash_range_is_named(tmp_path: Path) -> None:
     assert_one_error(result.stderr, f"coordinate x=1e+300 of scene-graph place {label} ")
     assert "scene graph's positions are damaged" in result.stderr.splitlines()[1]
     assert not (tmp_path / "m.aion").exists()
+
+
+def test_a_place_at_the_hash_range_s_edge_builds_and_loads_and_one_beyond_is_refused_by_both(
+    tmp_path: Path,
+) -> None:
+    """Build and load agree on a scene graph's places (stop 71): a place 2^20 cells from the
+    origin less a quarter cell (the last cell the spatial hash packs, x = 524,287.75 m at
+    cell_size 0.5) builds, and its map loads and answers; a quarter cell beyond (524,288.25
+    m) is refused by the build, and the map above with its place moved there is refused
+    on loading, naming the member (before: loaded, the place never checked)."""
+    from aion_cli.engine.spatial_hash import INDEX_MAX
+    from aion_cli.formats.mapfile import read_map, write_map
+    from tests.shared_data import real
+
+    inside, beyond = (INDEX_MAX + 0.5) * 0.5, (INDEX_MAX + 1.5) * 0.5
+    graph = json.loads(real("dsg", "apartment_dsg.json").read_text())
+    place = next(n for n in graph["nodes"] if n.get("layer") == 3)
+    log = write_log(tmp_path / "w.mcap", walk(20))
+    results = {}
+    for name, x in (("inside", inside), ("beyond", beyond)):
+        place["attributes"]["position"][0] = x
+        (tmp_path / f"{name}.json").write_text(json.dumps(graph))
+        results[name] = run("build", log, "--graph", tmp_path / f"{name}.json",
+                            "-o", tmp_path / f"{name}.aion")
+    assert results["inside"].exit_code == 0, results["inside"].stderr
+    assert run("predict", tmp_path / "inside.aion", "--historical").exit_code == 0
+    assert results["beyond"].exit_code == 2
+    assert_one_error(results["beyond"].stderr, f"coordinate x={beyond} of scene-graph place")
+    arrays, manifest = read_map(tmp_path / "inside.aion")
+    arrays = {k: np.array(v) for k, v in arrays.items()}
+    row = int(np.flatnonzero(arrays["graph_places_xyz"][:, 0] == inside)[0])
+    arrays["graph_places_xyz"][row, 0] = beyond
+    reserved = ("format", "version", "creator", "created", "members")
+    write_map(tmp_path / "moved.aion", arrays,
+              {k: v for k, v in manifest.items() if k not in reserved})
+    result = run("predict", tmp_path / "moved.aion", "--historical")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, "map state is inconsistent",
+                     f"graph_places_xyz holds {beyond:g} (row {row}), beyond the spatial hash's")

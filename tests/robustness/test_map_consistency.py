@@ -162,6 +162,13 @@ CASES: dict[str, tuple[Callable[[Arrays, Any], None], str]] = {
     # before stop 70: a distance from it overflowed to inf (engine.sensor_reach)
     "robot pose far beyond the spatial hash": (
         _set("obs_pose_xy", (3, 1), 1e300), "obs_pose_xy holds 1e+300 (row 3), beyond"),
+    # before stop 71: loaded (a build refuses such a place: ownership.check_graph)
+    "place far beyond the spatial hash": (
+        _set("graph_places_xyz", (3, 1), 6e5), "graph_places_xyz holds 600000 (row 3), beyond"),
+    "node far beyond the spatial hash": (
+        _set("node_xyz", (1, 0), -1e300), "node_xyz holds -1e+300 (row 1), beyond"),
+    "node reference far beyond the spatial hash": (
+        _set("node_ref_xyz", (2, 2), 1e9), "node_ref_xyz holds 1e+09 (row 2), beyond"),
     "fixed-sensor interval backwards": (_backwards_interval, "ends before it starts"),
     "negative drop count": (_meta("dropped", {"nan": -3}), "negative drop counts"),
     "open window in the year 2e10": (_meta("open_window", 10**18), "the open window"),
