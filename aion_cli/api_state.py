@@ -150,7 +150,9 @@ def state_span(state: MapState) -> tuple[int | None, int | None]:
 def write_state(state: MapState, timezone: str | None, target: Path) -> None:
     """Write an in-memory ``state`` (``Map.from_state``) as the map file ``target``, with
     :func:`state_manifest` (of the state now, as fed so far) and the state's members."""
+    from aion_cli.derived_seal import seal
     from aion_cli.formats.mapfile import write_map
 
     arrays, meta = state.to_arrays(lazy=True)
-    write_map(target, arrays, replace(state_manifest(state, timezone), state=meta).to_dict())
+    manifest = replace(state_manifest(state, timezone), state=meta).to_dict()
+    write_map(target, arrays, manifest, seal=seal)

@@ -58,6 +58,7 @@ def write_build(
     size. ``map_frame``: the frame the positions are in, recorded in the manifest;
     ``declared``: the ``--observed`` spans (a note counts those left outside the logs' time)."""
     from aion_cli.build_plausibility import far_from_graph_of
+    from aion_cli.derived_seal import seal
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import DECLARED, map_observation_text, share_text, silent_advice
     from aion_cli.forecast_notes import observed_hours
@@ -133,7 +134,7 @@ def write_build(
         recordings=recordings_after(previous, recording_entry(report.sketch, report.inputs)),
     )
     out = report.output
-    write_map(out, arrays, manifest.to_dict(), lock=False)
+    write_map(out, arrays, manifest.to_dict(), lock=False, seal=seal)
     report.map_bytes = out.stat().st_size
     report.hours_observed = observed_hours(manifest.families, manifest.config, config.timezone)
     report.timezone = config.timezone

@@ -61,7 +61,12 @@ def load_map(
 
     A query-only map (``aion compact``: no Fourier sums) is always read as ``forecast_only``,
     and refused as ``writable`` (:class:`~aion_cli.errors.MapFileError` naming the full map it
-    was made from)."""
+    was made from).
+
+    Derived members (FreMEn components, provisional scores, pooling priors) are used only
+    when the map's seal says they are its own (``aion_cli.derived_seal``); otherwise the
+    state computes them from its accumulators, and a query-only map is refused."""
+    from aion_cli.derived_seal import derived_use
     from aion_cli.engine.state import MapState
     from aion_cli.formats.mapfile import check_writable_version, open_map
     from aion_cli.query_only import query_only_of, refuse_learning
@@ -75,10 +80,12 @@ def load_map(
         if writable:
             check_writable_version(manifest.get("version"))
             refuse_learning(path, query_only, "continued or merged")
+        use = derived_use(path, manifest, query_only is not None)
         # a query-only map (aion compact) has no Fourier sums: it is read as queries read maps
         forecast_only = forecast_only or query_only is not None
         state = MapState.from_arrays(
-            members, meta, writable=writable, copy=False, forecast_only=forecast_only
+            members, meta, writable=writable, copy=False, forecast_only=forecast_only,
+            stored_forecasts=use.forecasts, stored_priors=use.priors,
         )
     return LoadedMap(state, latest_graph(state), manifest)
 

@@ -29,6 +29,7 @@ def write_merged(
     """The merged map file (atomic; the caller holds the output's lock) and the report's
     figures."""
     from aion_cli.build_plausibility import far_from_graph_of
+    from aion_cli.derived_seal import seal
     from aion_cli.engine.family_summary import family_summary
     from aion_cli.fixed_sensor import map_observation_text
     from aion_cli.forecast_notes import observed_hours
@@ -86,7 +87,8 @@ def write_merged(
         map_frame=common_frame([m.manifest.map_frame for m in maps]),
         recordings=tuple(r for m in maps for r in m.manifest.recordings),  # recording_twins
     )
-    write_map(report.output, arrays, manifest.to_dict(), lock=False)  # the caller holds the lock
+    # the caller holds the lock; the seal binds the derived members to the others
+    write_map(report.output, arrays, manifest.to_dict(), lock=False, seal=seal)
     report.inputs = [
         MergedInput(
             m.file, m.manifest.start_ns, m.manifest.end_ns, len(m.manifest.inputs), m.detections

@@ -17,7 +17,7 @@ import struct
 import tempfile
 import time
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import IO, Any
 
@@ -111,9 +111,18 @@ def _check_arrays(arrays: Mapping[str, Any]) -> None:
             )
 
 
-def _manifest_text(manifest: Mapping[str, Any], members: dict[str, dict[str, Any]]) -> bytes:
+Seal = Callable[[Mapping[str, Any], dict[str, dict[str, Any]]], Mapping[str, Any]]
+"""Manifest fields computed from the caller's manifest and the members table (each member's
+checksums, as written): ``write_map(..., seal=...)``."""
+
+
+def _manifest_text(
+    manifest: Mapping[str, Any], members: dict[str, dict[str, Any]], seal: Seal | None = None
+) -> bytes:
     if not isinstance(manifest, Mapping):
         raise MapContentError(f"manifest must be a dict, got {type(manifest).__name__}")
+    if seal is not None:  # fields that need the members' checksums, known only now
+        manifest = {**manifest, **seal(manifest, members)}
     clash = sorted(set(manifest) & set(RESERVED_KEYS))
     if clash:
         raise MapContentError(f"manifest keys {clash} are reserved for the map container")
@@ -148,7 +157,9 @@ def _aligned_info(filename: str, offset: int, zip64: bool) -> zipfile.ZipInfo:
     return zinfo
 
 
-def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> None:
+def _write_zip(
+    fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any, seal: Seal | None = None
+) -> None:
     members: dict[str, dict[str, Any]] = {}
     with zipfile.ZipFile(fileobj, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as zf:
         for name, arr in arrays.items():
@@ -175,7 +186,7 @@ def _write_zip(fileobj: IO[bytes], arrays: Mapping[str, Any], manifest: Any) -> 
                 "dtype": arr.dtype.str,
                 "shape": list(arr.shape),
             }
-        zf.writestr(MANIFEST_NAME, _manifest_text(manifest, members))
+        zf.writestr(MANIFEST_NAME, _manifest_text(manifest, members, seal))
 
 
 def _new_file_mode(target: Path) -> int:
@@ -194,6 +205,7 @@ def write_map(
     manifest: Mapping[str, Any],
     *,
     lock: bool = True,
+    seal: Seal | None = None,
 ) -> None:
     """Write ``arrays`` and the caller's ``manifest`` fields to the map file ``path``, atomically.
 
@@ -204,6 +216,9 @@ def write_map(
     :class:`MapContentError` for arrays/manifests that cannot be stored, :class:`MapWriteError`
     for OS failures. ``lock=False``: the caller already holds :func:`map_lock` for ``path``
     (a read-modify-write such as continuing a map holds it from the read to the write).
+    ``seal``: called with the caller's manifest and the members table once every member is
+    written; the fields it returns are added to the manifest (``aion_cli.derived_seal``:
+    a digest of the members' checksums).
     """
     target = Path(path)
     _check_arrays(arrays)
@@ -219,7 +234,7 @@ def write_map(
                 tmp = Path(tmp_name)
             os.chmod(tmp, _new_file_mode(target))  # mkstemp makes 0600; maps are shareable
             with os.fdopen(fd, "w+b") as fh:
-                _write_zip(fh, arrays, manifest)
+                _write_zip(fh, arrays, manifest, seal)
                 fh.flush()
                 os.fsync(fh.fileno())
             check_map_target(target)  # still a map (or nothing) after the write?

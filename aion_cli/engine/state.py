@@ -394,10 +394,14 @@ class MapState:
         writable: bool = True,
         copy: bool = True,
         forecast_only: bool = False,
+        stored_forecasts: bool = True,
+        stored_priors: bool = True,
     ) -> MapState:
         """Inverse of :meth:`to_arrays`; :class:`MapCorruptError` for inconsistent input
         (:func:`~aion_cli.engine.state_arrays.map_state_from_arrays`)."""
-        return map_state_from_arrays(cls, arrays, meta, writable, copy, forecast_only)
+        return map_state_from_arrays(
+            cls, arrays, meta, writable, copy, forecast_only, stored_forecasts, stored_priors
+        )
 
 
 def merge_states(a: MapState, b: MapState) -> MapState:

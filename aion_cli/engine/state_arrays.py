@@ -101,6 +101,8 @@ def map_state_from_arrays(
     writable: bool = True,
     copy: bool = True,
     forecast_only: bool = False,
+    stored_forecasts: bool = True,
+    stored_priors: bool = True,
 ) -> MapState:
     """Inverse of :func:`map_state_to_arrays`; :class:`MapCorruptError` for inconsistent input.
 
@@ -112,7 +114,12 @@ def map_state_from_arrays(
     the arrays are fresh (just read from a file) and the state may keep them instead of
     copying. A state that is not ``writable`` (a query's) keeps its temporal rows as
     stored: no room is reserved for new entries (``EntryStore`` capacity), which would
-    copy every accumulator once more."""
+    copy every accumulator once more.
+
+    ``stored_forecasts`` / ``stored_priors`` False: the map's FreMEn components and
+    provisional scores / its pooling priors are not its own (``aion_cli.derived_seal``):
+    they are left unread, and the state computes them from its accumulators (the Fourier
+    sums read, whatever ``forecast_only`` asks), as a map written without them."""
     from aion_cli.engine.state import DROP_REASONS  # state.py imports this module
 
     head = parse_state_meta(meta)
@@ -123,7 +130,7 @@ def map_state_from_arrays(
     entries = EntryStore.from_arrays(arrays, config.bins, adopt=not writable and not copy)
     params = TemporalParams.from_config(config)
     components = None
-    if forecast_only and not writable and meta.get("deferred") is None:
+    if forecast_only and stored_forecasts and not writable and meta.get("deferred") is None:
         components = fremen_components.FremenComponents.from_arrays(arrays, entries.n, params)
     temporal = TemporalState.from_arrays(
         arrays,
@@ -165,10 +172,10 @@ def map_state_from_arrays(
     except (KeyError, ValueError) as exc:
         raise MapCorruptError(f"map state arrays are incomplete or invalid: {exc}") from exc
     provisional = ProvisionalScores.from_arrays(arrays, entries.n, params)
-    if provisional is not None and state.pending and deferred is None:
+    if provisional is not None and state.pending and deferred is None and stored_forecasts:
         state._provisional = (state._view_key(), provisional)
     priors = PoolPriors.from_arrays(arrays)
-    if priors is not None and not writable and deferred is None:  # for this state's view
+    if priors is not None and not writable and deferred is None and stored_priors:
         state._priors = (state._view_key(), priors)
     check_ownership(state)
     check_loaded(state, arrays)
