@@ -97,7 +97,10 @@ def stale_because(manifest: Mapping[str, Any]) -> str | None:
         return f"its {FIELD!r} seal is not a record of rules and digests"
     if record.get("rules") != RULES:
         return f"they were computed by other rules ({record.get('rules')!r}, this aion's {RULES})"
-    digest, fourier = _digests(manifest, members)
+    try:
+        digest, fourier = _digests(manifest, members)
+    except (TypeError, ValueError):  # a state that is not JSON as written (NaN)
+        return "its state cannot be digested"
     if digest != record["digest"]:
         return "its members or state are not those they were computed from"
     if any(n in members for n in LEFT_OUT) and fourier != record["fourier"]:

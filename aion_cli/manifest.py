@@ -77,6 +77,10 @@ class Manifest:
     #: names and sha256s and a sample of their detections (``recording_twins``: one
     #: recording in two log files is refused when merged or continued); none in older maps
     recordings: tuple[dict[str, Any], ...] = ()
+    #: the seal of the map's derived members as read (``aion_cli.derived_seal``; not shown,
+    #: and written afresh by every write: ``write_map(..., seal=...)`` replaces it); None in
+    #: maps written before it
+    derived: dict[str, Any] | None = None
     container: dict[str, Any] = field(default_factory=dict)
 
     def __repr__(self) -> str:
@@ -139,6 +143,7 @@ class Manifest:
             map_frame=str(d["map_frame"]) if isinstance(d.get("map_frame"), str) else None,
             observed_spans=_spans(d.get("observed_spans")),
             recordings=_objects(d.get("recordings"), "recordings"),
+            derived=d["derived"] if isinstance(d.get("derived"), dict) else None,
             container={k: d[k] for k in ("format", "version", "creator", "created") if k in d},
         )
 
@@ -165,13 +170,17 @@ class Manifest:
             {"observed_spans": [list(span) for span in self.observed_spans]}
             if self.observed_spans
             else {}
-        ) | ({"recordings": list(self.recordings)} if self.recordings else {})
+        ) | ({"recordings": list(self.recordings)} if self.recordings else {}) | (
+            {"derived": self.derived} if self.derived is not None else {}
+        )
 
     def shown(self) -> dict[str, Any]:
         """What ``aion info MAP`` shows: the stored fields and the container's, without the
-        internal state table nor the samples of the logs' detections (``recordings``; a
-        part map's ``part``: how many days it holds unscored)."""
-        out = {k: v for k, v in self.to_dict().items() if k not in ("state", "recordings")}
+        internal state table nor the samples of the logs' detections (``recordings``) nor
+        the seal of its derived members (``derived``; a part map's ``part``: how many days it
+        holds unscored)."""
+        hidden = ("state", "recordings", "derived")
+        out = {k: v for k, v in self.to_dict().items() if k not in hidden}
         deferred = self.state.get("deferred")
         if isinstance(deferred, dict):  # a part map (aion build --part): its days held
             days = deferred.get("days")

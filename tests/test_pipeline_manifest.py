@@ -46,6 +46,7 @@ STORED_KEYS = [
     "families",
     "map_frame",  # since 2026-12-05: the frame the positions are in
     "recordings",  # since 2026-12-07: each build's logs and a sample of their detections
+    "derived",  # since 2026-12-08: the seal of the derived members (aion_cli.derived_seal)
     "members",
 ]
 CONTAINER_KEYS = ("format", "version", "creator", "created", "members")
@@ -68,9 +69,10 @@ def _logs(folder: Path) -> list[Path]:
 
 def _old_describe(path: Path) -> dict[str, Any]:
     """What ``aion info MAP`` showed before the typed manifest (the samples of the logs'
-    detections, ``recordings``, written since, are not shown: kilobytes of base64)."""
+    detections, ``recordings``, and the seal of the derived members, ``derived``, written
+    since, are not shown: kilobytes of base64, digests)."""
     manifest = read_manifest(path)
-    hidden = ("members", "state", "recordings")
+    hidden = ("members", "state", "recordings", "derived")
     return {"map": str(path)} | {k: v for k, v in manifest.items() if k not in hidden}
 
 

@@ -7,7 +7,8 @@ or refuses with one ``error:`` line naming the map, a ``hint:`` line and exit 2
 (formats/MAPFILE.md). ``info`` alone reads the manifest only: the members do not reach it.
 
 A member whose values pass every check but are not what the map's other members give (a
-stale copy, checksums updated) is not caught on reading (docs/ROBUSTNESS.md)."""
+stale copy, checksums updated) is caught by the map's seal since stop 71
+(``test_stale_derived.py``)."""
 
 from __future__ import annotations
 
