@@ -14,8 +14,9 @@ members left out). Queries read a map without them anyway (``mapquery.load_map(.
 forecast_only=True)``: ``predict``, ``plan``, ``export``, ``report``, the Python API), so every
 answer is the same, to the bit; a query-only map refuses to be continued or merged with a clear
 error naming the full map. Maps that cannot answer without their sums are refused: part maps
-(``aion build --part``: their days are held unscored for a merge) and maps written before the
-FreMEn components were stored.
+(``aion build --part``: their days are held unscored for a merge), maps written before the
+FreMEn components were stored, and maps whose stored components are stale (their seal does
+not hold: ``aion_cli.derived_seal``).
 """
 
 from __future__ import annotations
@@ -124,6 +125,7 @@ def compact_map(source: Path, output: Path) -> CompactReport:
     """Write the query-only copy of the map ``source`` to ``output`` (see the module
     docstring); ``output`` must be a new file or an aion map other than ``source`` (replaced
     atomically)."""
+    from aion_cli.derived_seal import stale_because
     from aion_cli.engine.temporal import components
     from aion_cli.formats.mapfile import RESERVED_KEYS, check_map_output, open_map, write_map
     from aion_cli.mapquery import check_map_input, entry_counts
@@ -155,6 +157,13 @@ def compact_map(source: Path, output: Path) -> CompactReport:
                 f"{source} stores no FreMEn components (written by an older aion): its "
                 "forecasts need the Fourier sums",
                 hint="keep the full map, or rebuild it with this version of aion",
+            )
+        if (why := stale_because(manifest)) is not None:  # the copy could not recompute them
+            raise InputError(
+                f"{source}'s stored forecasts (forecast_*, provisional_*) are not its own "
+                f"({why}): its queries compute them again from its Fourier sums, which a "
+                "query-only map leaves out",
+                hint="rebuild the map with aion build (its queries answer meanwhile)",
             )
         left_out = [n for n in names if n in LEFT_OUT]
         arrays = {n: members[n] for n in names if n not in LEFT_OUT}

@@ -175,3 +175,16 @@ def test_an_unsealed_map_s_priors_are_used_only_when_written_after_the_view_s_fi
     manifest["created"] = created
     use = derived_seal.derived_use(base, manifest, query_only=False)
     assert (use.forecasts, use.priors) == (True, priors)
+
+
+def test_a_stale_map_is_not_compacted(base: Path, tmp_path: Path) -> None:
+    """Its query-only copy could not compute the stale members again (no Fourier sums), and
+    would be refused: ``aion compact`` refuses the map, writing nothing."""
+    name = "forecast_priors"
+    changed = _npy(EDITS[name](_member(base, name)))
+    edited = _rewritten(base, tmp_path / "edited.aion", name, changed)
+    result = run("compact", edited, "-o", tmp_path / "small.aion")
+    assert result.exit_code == 2
+    assert_one_error(result.stderr, "stored forecasts (forecast_*, provisional_*) are not its own")
+    assert "aion build" in result.stderr.splitlines()[-1]
+    assert not (tmp_path / "small.aion").exists()
