@@ -76,7 +76,9 @@ cannot be read: why nav_layer, rooms and buildings are empty),
 merged_from[{name, path, size, sha256}] and lineage (a merged map),
 query_only{from{name, path, size, sha256}, left_out} (aion compact),
 part{held_days} and observed_spans[[start_ns, end_ns]] (a part map; the spans of --observed),
-and with --verify verified{members, bytes, consistent}; several
+and with --verify verified{members, bytes, consistent, sealed, derived_stale} (sealed: the map
+carries the seal of its derived members; derived_stale: why they are not its own, which
+queries then compute again, else null); several
 maps: a list of them.
 For a scene graph (.json, .sparkdsg): graph, size_bytes, format, version, reader (spark_dsg or
 lenient), nav_layer{name, key}, places, edges, frontiers_left_out, places_with_room, rooms,

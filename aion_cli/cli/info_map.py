@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from aion_cli.cli.output import human_size
+from aion_cli.cli.output import human_size, markup_safe
 from aion_cli.errors import path_word
 from aion_cli.listing import first_few
 
@@ -43,15 +43,30 @@ def _entries(path: Path) -> dict[str, int | None]:
 def verify_map(path: Path) -> dict[str, Any]:
     """``info --verify``: every member read and checked against its checksum (a query reads,
     and so checks, only the members it needs), then the state loaded and checked for
-    consistency. :class:`~aion_cli.errors.InputError` (corrupt, inconsistent) otherwise."""
+    consistency. :class:`~aion_cli.errors.InputError` (corrupt, inconsistent) otherwise.
+    ``sealed``: the map carries the seal of its derived members (written since stop 71);
+    ``derived_stale``: why they are not its own (queries compute them again), else None."""
+    from aion_cli.derived_seal import FIELD, stale_because
     from aion_cli.formats.mapfile import read_map
     from aion_cli.mapquery import load_map
 
-    arrays, _manifest = read_map(path)
+    arrays, manifest = read_map(path)
     members, size = len(arrays), sum(int(a.nbytes) for a in arrays.values())
     del arrays
     load_map(path)
-    return {"members": members, "bytes": size, "consistent": True}
+    return {"members": members, "bytes": size, "consistent": True,
+            "sealed": manifest.get(FIELD) is not None, "derived_stale": stale_because(manifest)}
+
+
+def _derived_text(verified: dict[str, Any]) -> str:
+    """What ``info --verify`` says of the map's derived members (``aion_cli.derived_seal``)."""
+    what = "; its derived members (forecast_*, provisional_*)"
+    if not verified.get("sealed"):
+        return f"{what} carry no seal (written before 2026-12-08)"
+    stale = verified.get("derived_stale")
+    if stale is None:
+        return f"{what} are its own"
+    return f"{what} are not its own ({markup_safe(stale)}): queries compute them again"
 
 
 def _hierarchy(path: Path) -> dict[str, Any]:
@@ -273,7 +288,7 @@ def print_map(report: dict[str, Any]) -> None:
         table.add_row(
             "verified",
             f"every member ({verified['members']:,}, {human_size(verified['bytes'])}) matches "
-            "its checksum; the state is consistent",
+            "its checksum; the state is consistent" + _derived_text(verified),
         )
     defaults = ModelConfig().parameters()
     changed = {k: v for k, v in report.get("config", {}).items() if defaults.get(k) != v}

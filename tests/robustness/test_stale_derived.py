@@ -60,6 +60,12 @@ def _predict(path: Path) -> str:
     return str(result.stdout).replace(str(path), "MAP")
 
 
+def _edited(src: Path, tmp_path: Path, name: str) -> Path:
+    """``src`` with ``name`` changed by :data:`EDITS` (valid values), checksums updated."""
+    changed = _npy(EDITS[name](_member(src, name)))
+    return _rewritten(src, tmp_path / "edited.aion", name, changed)
+
+
 def _plus_static(a: np.ndarray) -> np.ndarray:
     out = a.copy()
     out[:, 0] += 1000.0  # the static family's score: the choice of families moves
@@ -79,8 +85,7 @@ def test_an_edited_derived_member_is_caught_and_computed_again(
 ) -> None:
     """Valid values, checksums updated: the forecasts are the intact map's; without the
     seal the same edit reaches them."""
-    changed = _npy(EDITS[name](_member(base, name)))
-    edited = _rewritten(base, tmp_path / "edited.aion", name, changed)
+    edited = _edited(base, tmp_path, name)
     intact = _predict(base)
     assert _predict(edited) == intact
     assert _predict(_unsealed(edited, tmp_path / "unsealed.aion")) != intact
@@ -181,10 +186,28 @@ def test_a_stale_map_is_not_compacted(base: Path, tmp_path: Path) -> None:
     """Its query-only copy could not compute the stale members again (no Fourier sums), and
     would be refused: ``aion compact`` refuses the map, writing nothing."""
     name = "forecast_priors"
-    changed = _npy(EDITS[name](_member(base, name)))
-    edited = _rewritten(base, tmp_path / "edited.aion", name, changed)
+    edited = _edited(base, tmp_path, name)
     result = run("compact", edited, "-o", tmp_path / "small.aion")
     assert result.exit_code == 2
     assert_one_error(result.stderr, "stored forecasts (forecast_*, provisional_*) are not its own")
     assert "aion build" in result.stderr.splitlines()[-1]
     assert not (tmp_path / "small.aion").exists()
+
+
+def test_info_verify_says_whether_the_derived_members_are_the_map_s_own(
+    base: Path, tmp_path: Path
+) -> None:
+    name = "forecast_priors"
+    edited = _edited(base, tmp_path, name)
+    shown = {}
+    for label, path in (("intact", base), ("edited", edited),
+                        ("unsealed", _unsealed(base, tmp_path / "unsealed.aion"))):
+        result = run("info", path, "--verify", "--format", "json")
+        assert result.exit_code == 0, result.stderr
+        shown[label] = json.loads(str(result.stdout))["verified"]
+    assert (shown["intact"]["sealed"], shown["intact"]["derived_stale"]) == (True, None)
+    assert shown["edited"]["sealed"] is True
+    assert "not those they were computed from" in shown["edited"]["derived_stale"]
+    assert (shown["unsealed"]["sealed"], shown["unsealed"]["derived_stale"]) == (False, None)
+    text = run("info", edited, "--verify")
+    assert "are not its own" in str(text.stdout)
