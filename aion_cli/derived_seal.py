@@ -29,6 +29,9 @@ its accumulators, exactly as a map in memory computes them (the Fourier sums rea
 query-only map cannot (it has no Fourier sums): it is refused. A map written before the seal
 (before 2026-12-08, stop 71) is read as before, except that its ``forecast_priors`` are not used
 when it was written before the fix of the view (:data:`VIEW_FIXED`): its queries estimate them.
+(Unsealed maps written before stop 71's κ_G on observed hours only, 6720f7f7, keep their κ_G:
+a changed estimator, not a wrong view, and dropping the priors of every unsealed map would
+cost each of its queries the three searches the member spares.)
 
 The seal is no signature: a tool that knows it can forge one. It catches the edits and the
 old writers that do not.
