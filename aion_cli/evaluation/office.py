@@ -293,9 +293,11 @@ def run_office(
     cfg = config or ModelConfig()
     radius = association_radius(radius)
     if not (math.isfinite(days) and days > 0):
-        raise InputError(f"--days must be a positive number, got {days!r}")
+        raise InputError(f"--days must be a positive number, got {days!r}",
+                         hint="e.g. --days 2 (the default): simulated days per scene")
     if seed < 0:
-        raise InputError(f"--seed must be a whole number from 0, got {seed}")
+        raise InputError(f"--seed must be a whole number from 0, got {seed}",
+                         hint="e.g. --seed 0 (the default)")
     if cfg.bins != 8:
         raise InputError(
             f"the office comparison keeps 8 direction bins (its truth and the grid), got "

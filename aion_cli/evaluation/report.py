@@ -216,7 +216,8 @@ def write_report(
         raise InputError("every section is skipped: the report would be empty",
                          hint=f"leave out at least one --skip of {', '.join(sections)}")
     if not (math.isfinite(days) and days > 0):
-        raise InputError(f"--days must be a positive number, got {days!r}")
+        raise InputError(f"--days must be a positive number, got {days!r}",
+                         hint="e.g. --days 2 (the default): simulated days per office scene")
     if not out_dir.exists():  # -o report.md: the folder would look like the page
         from aion_cli.exports import refuse_file_name
 

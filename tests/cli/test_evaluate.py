@@ -110,22 +110,28 @@ def test_the_data_folder_is_found_from_any_folder(tmp_path: Path) -> None:
         (["office", "--config", "BINS4"], "keeps 8 direction bins"),
         # 00:00-02:24: nobody at work yet (the hint named --detections-topic, not an option)
         (["office", "--days", "0.1"], "the robot detected nobody in 0.1 simulated day(s)"),
+        (["report", "-o", "REPORT", "--days", "nan"], "--days must be a positive number"),
     ],
 )
 def test_evaluate_office_refuses_numbers_it_cannot_run_with(
     args: list[str], fragment: str, tmp_path: Path
 ) -> None:
-    """Each was an internal error, or a table computed with a nonsense radius."""
+    """Each was an internal error, or a table computed with a nonsense radius; each is one
+    error line and a hint (--days nan, which click's range lets through, and --seed -1 had
+    no hint)."""
     config = tmp_path / "bins4.toml"
     config.write_text("bins = 4\n")
-    argv = [str(config) if a == "BINS4" else a for a in args]
+    given = {"BINS4": str(config), "REPORT": str(tmp_path / "report")}
+    argv = [given.get(a, a) for a in args]
     proc = subprocess.run(
         [str(AION), "evaluate", *argv, "--scenes", "1"], capture_output=True, text=True,
         check=False,
     )
     assert proc.returncode == 2, proc.stderr
-    assert fragment in proc.stderr
-    assert "Traceback" not in proc.stderr
+    lines = proc.stderr.split("error: ", 1)[1].splitlines()  # after any progress line
+    assert len(lines) == 2, proc.stderr
+    assert lines[1].startswith("hint: "), proc.stderr
+    assert fragment in lines[0], proc.stderr
 
 
 @needs(DATA / "fremen_door", "the FreMEn door data")
