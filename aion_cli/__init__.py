@@ -52,6 +52,12 @@ def __getattr__(name: str) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
+def __dir__() -> list[str]:
+    """The package's names with those of :data:`_LAZY`, which ``dir(aion)`` and a notebook's
+    tab completion (which calls it) would otherwise not offer until first used."""
+    return sorted({*globals(), *_LAZY} - {"Any", "TYPE_CHECKING"})
+
+
 __all__ = [
     "AionError",
     "AionWarning",

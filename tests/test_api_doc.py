@@ -160,6 +160,16 @@ def test_the_api_module_names_every_name_the_package_exports() -> None:
     assert set(imported) | besides == set(aion.__all__) - {"__version__"}
 
 
+def test_dir_of_the_package_offers_every_name_it_exports() -> None:
+    """``dir(aion)``, which a notebook's tab completion calls, left out the result types the
+    package imports when first asked for (``aion.SeriesTable``, ``aion.BuildReport``, ...),
+    and offered ``typing``'s ``Any`` and ``TYPE_CHECKING``."""
+    names = dir(aion)
+    assert set(aion.__all__) <= set(names)
+    assert {"Any", "TYPE_CHECKING"}.isdisjoint(names)
+    assert all(hasattr(aion, name) for name in names)
+
+
 def test_the_api_says_which_commands_it_does_and_does_not_cover() -> None:
     """docs/API.md began "Everything the ``aion`` command does can be done from Python",
     though ``info`` of a log, ``report``, ``simulate``, ``convert`` and the datasets'
