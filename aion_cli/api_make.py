@@ -164,12 +164,13 @@ def build(
     ``lineage`` (auto / same / different): whether ``graph``, else the logs' first scene
     graph, is of ``continue_from``'s scene-graph session, as ``--lineage``."""
     from aion_cli.api import read_map
-    from aion_cli.api_checks import count, flag, text, zone_name
+    from aion_cli.api_checks import count, flag, path_list, text, zone_name
     from aion_cli.build_options import map_frame_of
     from aion_cli.log_zone import build_zone, continued_zone
     from aion_cli.pipeline import build_map
     from aion_cli.timeparse import resolve_zone
 
+    paths = path_list(logs, "logs")  # read twice below: a generator of logs only once
     tz = zone_name(tz)
     if tz is not None:  # named as aion build --tz names it: UTC+05:30, the machine's for local
         tz = resolve_zone(tz).name
@@ -183,11 +184,11 @@ def build(
         "observed": observed,
     }
     map_zone = continued_zone(continued)
-    opts = reading_options(logs, dict(reading, observed=()), tz)  # the logs, for their zone
+    opts = reading_options(paths, dict(reading, observed=()), tz)  # the logs, for their zone
     # the zone the logs declare (aion simulate --tz), as aion build takes it
     tz, notes, warnings = build_zone(tz, map_zone, opts.logs)
     # observed= read in the zone the map follows, as aion build reads --observed
-    opts = reading_options(logs, reading, tz if tz is not None else map_zone)
+    opts = reading_options(paths, reading, tz if tz is not None else map_zone)
     opts = replace(
         opts,
         output=_optional_path(output, "output"),

@@ -190,6 +190,19 @@ def test_without_output_the_map_is_written_where_aion_build_writes_it(
     assert [i.name for i in aion.Map.load(built.path).manifest.inputs] == ["monday.mcap"]
 
 
+def test_build_takes_its_logs_from_a_generator(office: Office, tmp_path: Path) -> None:
+    """docs/API.md takes paths as "any other iterable" and ``build``'s annotation admits a
+    generator of logs, but ``aion.build(p for p in logs)`` was refused 'no log given': the
+    build read its logs twice (once for the zone they declare), the generator was empty the
+    second time. The map is the one of the list."""
+    listed = aion.build([office.log], tmp_path / "listed.aion")
+    generated = aion.build((p for p in [office.log]), tmp_path / "generated.aion")
+    assert generated.report.detections_used == listed.report.detections_used > 0
+    a, b = generated.predict(T).to_dict(), listed.predict(T).to_dict()
+    assert a.pop("map") != b.pop("map")
+    assert a == b
+
+
 def test_merge_takes_one_path_alone_as_build_does(office: Office, tmp_path: Path) -> None:
     """``aion.merge("part.aion", out)``: one path alone is one map, as ``aion.build`` takes one
     log and ``aion merge PART.aion`` one part map (it was refused: 'merge takes a list of map
