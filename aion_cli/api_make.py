@@ -45,6 +45,13 @@ def as_path(value: PathLike, what: str = "path") -> Path:
     text = path_text(value, what)
     if not text.strip():
         raise InputError("an empty path was given", hint="name the file or folder ('.' for here)")
+    head = next(iter(Path(text).parts), "")  # "." has no parts
+    if head.startswith("~") and not os.path.lexists(head):  # "~/logs/run.mcap" from a shell
+        raise InputError(
+            f"{what} {text!r} starts with {head!r}, which Python does not expand as a shell does "
+            f"(nor is there a file or folder {head!r} in the current folder)",
+            hint=f"give os.path.expanduser({text!r}), i.e. {os.path.expanduser(text)!r}",
+        )
     return Path(text)
 
 

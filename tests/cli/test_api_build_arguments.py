@@ -203,6 +203,35 @@ def test_build_takes_its_logs_from_a_generator(office: Office, tmp_path: Path) -
     assert a == b
 
 
+def test_a_path_from_home_with_a_tilde_says_python_does_not_expand_it(
+    office: Office, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``aion.build("~/logs/run.mcap")``, as written in a shell, was told its output folder
+    '~' does not exist, with the hint ``mkdir -p '~'`` (a folder named '~' here); a map to
+    load was 'not found'. Each path is refused naming the tilde, with its expanded form; a
+    file or folder really named '~' in the current folder is taken as it is."""
+    import os
+
+    monkeypatch.chdir(tmp_path)
+    calls = {
+        "log": lambda: aion.build("~/run.mcap"),
+        "output": lambda: aion.build(office.log, "~/office.aion"),
+        "path": lambda: aion.Map.load("~/office.aion"),
+    }
+    for what, call in calls.items():
+        with pytest.raises(InputError, match=f"^{what} '~/[a-z.]+' starts with '~', which Python "
+                           "does not expand") as refused:
+            call()
+        assert os.path.expanduser("~/") in (refused.value.hint or "")
+        assert not (tmp_path / "~").exists()
+    with pytest.raises(aion.AionError, match="is a folder"):  # "." has no first part
+        aion.compact(office.map, ".")
+    (tmp_path / "~").mkdir()
+    copy = aion.Map.load(office.map).save("~/copy.aion")
+    assert (tmp_path / "~" / "copy.aion").is_file()
+    assert copy == Path("~/copy.aion")
+
+
 def test_merge_takes_one_path_alone_as_build_does(office: Office, tmp_path: Path) -> None:
     """``aion.merge("part.aion", out)``: one path alone is one map, as ``aion.build`` takes one
     log and ``aion merge PART.aion`` one part map (it was refused: 'merge takes a list of map
