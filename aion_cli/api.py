@@ -216,6 +216,15 @@ class Map(Generic[Report]):
 
         return [api_text(n) for n in query_notes(self.manifest, time, zone, t_ns, series, noun)]
 
+    def _flowless(self, kinds: Any) -> tuple[str, ...]:
+        """:func:`aion_cli.api_results.flowless_rows_note` of rows of kinds ``kinds``, in the
+        API's words (none, or one note)."""
+        from aion_cli.api_results import flowless_rows_note
+        from aion_cli.api_words import api_text
+
+        said = flowless_rows_note(self._loaded.state, kinds)
+        return () if said is None else (api_text(said),)
+
     # -- queries -----------------------------------------------------------------------------
 
     @one_at_a_time
@@ -247,6 +256,7 @@ class Map(Generic[Report]):
             t_ns, zone = self._time("now" if time is None else time, tz)
         rows, _ = predicted_records(self._loaded, t_ns, layer, wanted, point, top)
         notes = () if t_ns is None or zone is None else tuple(self._notes(time, zone, t_ns))
+        notes += self._flowless([row["kind"] for row in rows])
         return Table(
             self._label,
             t_ns,
@@ -298,7 +308,11 @@ class Map(Generic[Report]):
         table = predict_series(self._loaded, times, layer, wanted, point, top)
         labels = [format_ns(t, zone) for t in times]
         made = described(table, self._label, zone, labels, hour_flags(self._loaded, times))
-        return replace(made, notes=tuple(self._notes(start, zone, times[0], times)))
+        kinds = [e["kind"] for e in table.entries] if table.columns is None else (
+            table.columns.column("kind")
+        )
+        notes = (*self._notes(start, zone, times[0], times), *self._flowless(kinds))
+        return replace(made, notes=notes)
 
     plan = api_plan.plan  # a path, or the best departure (aion_cli.api_plan)
 

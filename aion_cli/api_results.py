@@ -60,7 +60,9 @@ class Table:
     notes: tuple[str, ...] = ()
     """What the forecast at this time cannot say (:func:`aion_cli.forecast_notes.forecast_notes`:
     every entry at its static rate, a time long after the map's data, an hour no log
-    observed), as ``aion predict`` prints them on stderr; not in :meth:`to_dict`."""
+    observed), as ``aion predict`` prints them on stderr; not in :meth:`to_dict`; and, for
+    rows none of which is a hash cell on a map whose places hold no detection, where the
+    detections are (:func:`flowless_rows_note`, historical tables too)."""
 
     def records(self) -> list[dict[str, Any]]:
         """The entries as a list of fresh dicts (safe to change: their lists, ``histogram``
@@ -309,6 +311,32 @@ def flowless_places_note(state: Any, said: str = DISTANCE_PLAN) -> str | None:
         else "the map holds none"
     )
     return f"none of the scene graph's {places:,} places holds a detection ({where}): {said}"
+
+
+FLOWLESS_ROWS = (
+    "its places, rooms and buildings show no flow: --layer cells lists the cells that hold them"
+)
+"""What :func:`flowless_rows_note` says of ``aion predict``'s rows."""
+
+
+def flowless_rows_note(state: Any, kinds: Any) -> str | None:
+    """:func:`flowless_places_note` for the rows of ``aion predict`` (and ``Map.predict``,
+    its series, ``--historical``) whose ``kind`` are ``kinds`` (an array or list, one a row):
+    when none of them is a hash cell (``--layer places``, ``rooms``, ``buildings``, or the
+    places ``--node`` names) on a map whose places hold no detection, every row is a zero
+    that does not say where the detections are. None when a row is a cell, there is no row,
+    a place holds a detection, or the map holds none (an empty map's note says so)."""
+    import numpy as np
+
+    from aion_cli.mapquery import detections_by_kind
+
+    kind = np.asarray(kinds, dtype=object)
+    if kind.size == 0 or bool(np.any(kind == "cell")):
+        return None
+    on_cells, on_nodes = detections_by_kind(state)  # once, unless the note is said
+    if on_nodes > 0 or on_cells == 0:
+        return None
+    return flowless_places_note(state, FLOWLESS_ROWS)
 
 
 class Files(list["Path"]):

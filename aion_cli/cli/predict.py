@@ -25,6 +25,7 @@ from aion_cli.cli.predict_series import (
     TABLE_COLUMNS,
     check_series_options,
     run_series,
+    say_flowless,
     say_nearest,
 )
 from aion_cli.note_words import EXTRAPOLATED
@@ -174,6 +175,7 @@ def command(
     else:  # --historical: no forecast's notes, but an empty map's
         note_empty(loaded)
     say_nearest(at, next(iter(entries.records()), None) if at is not None else None)
+    say_flowless(loaded, entries.column("kind"))
     (seen,) = hour_flags(loaded, [t_ns])
     if fmt in ("json", "csv"):
         doc = document(map_path, loaded.config.bins, [], t_ns, zone, seen)

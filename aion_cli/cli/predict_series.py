@@ -90,6 +90,8 @@ def run_series(
     labels = [format_ns(t, zone) for t in times]
     announce_time(times[0], zone, "from", loaded, series=times, text=t_from)
     say_nearest(at, table.entries[0] if table.entries else None)
+    say_flowless(loaded, [e["kind"] for e in table.entries] if table.columns is None
+                 else table.columns.column("kind"))  # fmt: skip
     if fmt in ("json", "csv"):  # to_json(.to_dict()) / to_csv(.long_rows(labels), KEYS) text
         full = described(table, map_path, zone, labels, hour_flags(loaded, times))
         if fmt == "json":
@@ -104,6 +106,17 @@ def run_series(
                 "--node, --top N, --format csv or --format json for others"
             )
         _print(table, zone, shown, hour_flags(loaded, times))
+
+
+def say_flowless(loaded: Any, kinds: Any) -> None:
+    """A note when the rows (their ``kinds``) are places, rooms or buildings of a map whose
+    places hold no detection (:func:`aion_cli.api_results.flowless_rows_note`)."""
+    from aion_cli.api_results import flowless_rows_note
+    from aion_cli.cli.console import note
+
+    said = flowless_rows_note(loaded.state, kinds)
+    if said is not None:
+        note(said)
 
 
 def say_nearest(at: str | None, entry: dict[str, Any] | None) -> None:
