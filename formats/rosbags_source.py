@@ -112,11 +112,12 @@ class _RosbagsSource(_Source):
 
     def _compression(self, kind: str) -> tuple[str, ...]:
         """A bag's chunk compressions (``none``, ``bz2``, ``lz4``), from the chunk headers
-        read at open; a rosbag2 bag's metadata.yaml ``compression_format`` and
+        read at open (``none`` for a bag without chunks, which holds nothing compressed, as an
+        MCAP file without chunks); a rosbag2 bag's metadata.yaml ``compression_format`` and
         ``compression_mode`` (``zstd (file)``), or ``none``."""
         reader = self._reader
         if kind == "bag":
-            return tuple(sorted({c for c, _ in reader.chunk_meta.values()}))
+            return tuple(sorted({c for c, _ in reader.chunk_meta.values()})) or ("none",)
         fmt = reader.compression_format
         mode = str(reader.compression_mode or "file").lower()
         return (f"{fmt} ({mode})",) if fmt else ("none",)

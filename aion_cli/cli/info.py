@@ -35,7 +35,8 @@ build takes each topic (will_use lists those taken), `why` why it is used or ski
 graph or raw sensor data: the error lists the topics that look like detections).
 JSON keys: formats, format, files[{path, format, size_bytes, messages, start_ns, end_ns,
 compression}], size_bytes, compression (each file's: its chunks' none / bz2 / lz4 / zstd, from
-the index or summary, and a rosbag2 bag's zstd (file) / zstd (message); [] unknown), start_ns,
+the index or summary, none for a file without chunks, and a rosbag2 bag's zstd (file) / zstd
+(message); [] unknown), start_ns,
 end_ns, start, end (times null without messages; a stray log time the build drops left out: a
 warning names it), span_s (first to last message, the time between logs included; duration_s
 is the same), recorded_s (how long the logs

@@ -164,7 +164,7 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
     out.print(
         f"[bold]{names}[/bold]  format: {safe(report['format'] or '?')}  "
         f"size: {human_size(report['size_bytes'])}  "
-        f"compression: {safe(', '.join(report['compression']) or '?')}  "
+        f"compression: {safe(', '.join(report['compression']) or 'unknown')}  "
         f"{times}  "
         f"messages: {messages}",
         soft_wrap=True,

@@ -38,6 +38,22 @@ def test_ros1_bag_chunk_compression(name: str, expected: str) -> None:
     assert f"compression: {expected}" in " ".join(table.stdout.split())
 
 
+def test_ros1_bag_without_chunks_holds_nothing_compressed() -> None:
+    """rosbag.js's ``no-messages.bag`` has no chunk record (read with the test's own record
+    parser): nothing in it is compressed, as an MCAP file without chunks says (``none``);
+    before, JSON said ``[]`` (unknown) and the table ``compression: ?``."""
+    from tests.formats.test_real_containers import _bag_records
+
+    log = real("logs", "rosbagjs_fixtures", "no-messages.bag")
+    ops = {header["op"][0] for header, _ in _bag_records(log.read_bytes(), 13)}
+    assert 0x03 in ops  # the bag header record: the parser reads the file
+    assert 0x05 not in ops  # no chunk
+    assert _compression(log) == (["none"], [["none"]])
+    table = run("info", log)
+    assert table.exit_code == 0, table.stderr
+    assert "compression: none " in " ".join(table.stdout.split())
+
+
 def _chunk_compressions(path: Path) -> set[str]:
     """The chunk indexes' compressions as the ``mcap`` library reads them."""
     from mcap.reader import make_reader
