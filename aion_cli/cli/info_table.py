@@ -51,12 +51,29 @@ def _unused_pointer(report: dict[str, Any]) -> str:
     return ", or ".join(parts)
 
 
-def rate_text(hz: float) -> str:
+FASTEST_HZ = 100_000.0
+"""Above this rate (messages under 10 µs apart on average: no sensor's stream, but stamps a
+test or a converter wrote nanoseconds apart) the table gives a topic's ``count`` over the
+time it spans (``804 in 2 µs``), not ``402402402.40`` Hz; JSON keeps ``rate_hz``."""
+
+
+def rate_text(hz: float, count: int | None = None) -> str:
     """A topic's rate for the table: two decimals, or two significant digits below 0.1 Hz, so
-    a scene graph every ten minutes reads 0.0017, not 0.00 (a topic with messages)."""
+    a scene graph every ten minutes reads 0.0017, not 0.00 (a topic with messages); above
+    :data:`FASTEST_HZ`, with its ``count``, the count over its span (``count / hz``)."""
     from aion_cli.cli.output import small_num
 
+    if count is not None and hz > FASTEST_HZ:
+        return f"{count:,} in {_short_time(count / hz)}"
     return small_num(hz)
+
+
+def _short_time(seconds: float) -> str:
+    """A time under a few seconds to two significant digits in ns, µs, ms or s."""
+    for unit, scale in (("ns", 1e-9), ("µs", 1e-6), ("ms", 1e-3)):
+        if seconds < 1000 * scale:
+            return f"{significant(seconds / scale, 2)} {unit}"
+    return f"{significant(seconds, 2)} s"
 
 
 def _seconds_text(seconds: float) -> str:
@@ -187,7 +204,7 @@ def print_report(report: dict[str, Any], zone: str = "UTC") -> None:
             role = f"[dim]- {safe(why or 'not a type aion reads')}[/dim]"
         if t["topic"] in report["dsg_versions"]:
             role += f" (spark_dsg {safe(', '.join(report['dsg_versions'][t['topic']]))})"
-        rate = "-" if t["rate_hz"] is None else rate_text(t["rate_hz"])
+        rate = "-" if t["rate_hz"] is None else rate_text(t["rate_hz"], t["count"])
         table.add_row(safe(t["topic"]), safe(t["type"]), f"{t['count']:,}", rate, role)
     print_table(table)
     use = report["will_use"]
