@@ -67,10 +67,19 @@ verified{messages_read} (every message read as a build reads them; chunks that c
 are warnings naming the messages lost).
 For a map (.aion): map, format, version, creator, created (UTC; the table shows it, as every
 time, in the map's timezone), inputs[{path, name, size, sha256}],
-time_span, counts (all builds), entries and places_without_data (the graph's places that hold
-no entry: predict lists them too, family none; null when unreadable), last_build,
-graph_source, observation, families (how many entries each temporal model family forecasts,
-flow and direction), timezone, config, map_frame,
+time_span{start_ns, end_ns}, counts{read, used, dropped{reason: detections}, empty_messages
+(detection messages that held none), cells, nodes, nodes_with_flow, bound_cells, windows
+(observed); a fixed sensor's recording_windows (its logs' own time, in windows),
+recording_reach and recording_first (the last and the first window its logs recorded, as
+window numbers since 1970)} over all builds, entries and places_without_data (the graph's
+places that hold no entry: predict lists them too, family none; null when unreadable),
+last_build{read, used, dropped} (the latest build alone), graph_source, observation,
+families{flow{family: entries}, direction{family: entries} (how many entries each temporal
+model family forecasts), reconciled, scored_days, scored_windows, last_day_provisional,
+observed_bins (the profile bins, hour of day x kind of day, in which anything was observed),
+rules (the version of the rules that chose them), calendar{calendar (week or day_weekend: the
+calendar the map's days ask for), gain (the week's day-ahead gain, nats), weekday_days}}
+(formats/MAPFILE.md says more), timezone, config, map_frame,
 nav_layer (the graph layer of its places: places, mesh_places, ...; null without a graph),
 rooms[{id, name, places}], buildings[{id, name, rooms}], warnings (a state and graph that
 cannot be read: why nav_layer, rooms and buildings are empty),

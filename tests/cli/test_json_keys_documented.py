@@ -19,23 +19,26 @@ AT = ("--time", "2026-01-12 08:40", "--tz", "UTC")
 DATA_KEYED = {
     # objects whose keys are data (topics, reasons, roles, families, parameters), not fields
     "detection_decoding", "detections_by_topic", "dropped", "log_times_dropped",
-    "dsg_versions", "frames_without_tf", "tf_roots", "roles", "config", "families", "counts",
-    "last_build", "skipped", "aion", "declared_zones",
+    "dsg_versions", "frames_without_tf", "tf_roots", "roles", "config", "skipped", "aion",
+    "declared_zones",
 }
+DATA_KEYED_IN = {"families": {"flow", "direction"}}
+"""Such objects inside one object only: a map's ``families.flow`` is keyed by family names
+(its other keys, and those of ``counts``, are fields)."""
 
 
-def keys(doc: Any, depth: int = 0) -> set[str]:
+def keys(doc: Any, parent: str = "") -> set[str]:
     """The field names of a JSON document, nested objects and lists of objects included,
     without descending into objects keyed by data."""
     out: set[str] = set()
     if isinstance(doc, list):
         for item in doc:
-            out |= keys(item, depth)
+            out |= keys(item, parent)
     elif isinstance(doc, dict):
         for key, value in doc.items():
             out.add(key)
-            if key not in DATA_KEYED:
-                out |= keys(value, depth + 1)
+            if key not in DATA_KEYED and key not in DATA_KEYED_IN.get(parent, ()):
+                out |= keys(value, key)
     return out
 
 
@@ -116,6 +119,14 @@ def test_info_keys_are_in_its_help(maps: dict[str, Path], tmp_path: Path) -> Non
                         strict=True):
         assert key in doc
     assert "verified" in docs[5]
+    seen = tmp_path / "seen.mcap"  # office hours: people to build a fixed sensor's map of
+    assert run("simulate", "-o", seen, "--robot", "fixed", "--days", "0.05", "--start",
+               "2026-01-05T09:00", "-q").exit_code == 0  # fmt: skip
+    fixed_map = tmp_path / "fixed.aion"  # counts{recording_windows, recording_reach, ...}
+    assert run("build", seen, "-o", fixed_map, "--workers", "1", "-q").exit_code == 0
+    docs.append(run_json("info", fixed_map, "--format", "json"))
+    assert {"recording_reach", "recording_first"} <= set(docs[-1]["counts"])
+    assert {"calendar", "observed_bins"} <= set(docs[-1]["families"])
     bag = SHARED_DATA / "logs" / "rosbagjs_fixtures" / "example.bag"
     if bag.exists():  # no detection topic: mapping_example
         docs.append(run_json("info", bag, "--format", "json"))
