@@ -268,9 +268,13 @@ def sample_rows(counts: F64, about: int, shares: F64 | None = None) -> npt.NDArr
     whole = np.minimum(counts, 2.0**31).astype(np.uint64)
     primes = np.array([1_000_003, 998_244_353, 1_000_000_007, 2_147_483_647], np.uint64)
     mix = (whole * primes[np.arange(whole.shape[1]) % primes.size]).sum(axis=1, dtype=np.uint64)
-    if shares is not None:  # one float per row (a matrix-vector product), its bits mixed in
+    if shares is not None:  # one float per row (a weighted sum), its bits mixed in
         weights = np.sqrt(np.arange(2.0, shares.shape[1] + 2.0))  # irrational: rows apart
-        bits = np.ascontiguousarray(np.asarray(shares, np.float64) @ weights).view(np.uint64)
+        # products, then row_sums' fixed order of additions: not a BLAS matrix-vector
+        # product, whose last bits depend on how OpenBLAS splits the rows over the machine's
+        # cores (1 against 2 threads: a row or two of 16 columns in 1 size of 40), which
+        # chose other rows and fitted another κ
+        bits = row_sums(np.asarray(shares, np.float64) * weights).view(np.uint64)
         mix += (bits ^ (bits >> np.uint64(31))) * np.uint64(0x94D049BB133111EB)
     mix = (mix ^ (mix >> np.uint64(29))) * np.uint64(0xBF58476D1CE4E5B9)
     mix ^= mix >> np.uint64(32)
