@@ -400,7 +400,8 @@ def test_the_summary_prints_names_from_the_log_as_plain_text(tmp_path: Path) -> 
     assert ESC not in result.stderr
     assert "\x07" not in result.stderr
     assert "warning: /tr\\x1b[2Jacks: 60 of its 100 detections" in result.stderr
-    assert "frames: [red]cam\\x07, map" in result.stderr
+    # the warning naming the frame to give (it says what the chain note said: one of them)
+    assert "e.g. --base-frame [red]cam\\x07" in result.stderr
 
 
 def test_an_older_log_is_refused_with_times_on_the_maps_clock(tmp_path: Path) -> None:
