@@ -20,6 +20,19 @@ from tests.cli.conftest import run_json
 T0 = 1_767_607_200 * 10**9  # 2026-01-05 10:00 UTC
 
 
+def _converted(tmp_path: Path, t: np.ndarray, x: np.ndarray, *options: str) -> Path:
+    """One track walking along x at times ``t``, written as a tracks CSV and converted to a
+    log (``aion convert`` with ``options``)."""
+    from tests.cli.conftest import run
+
+    csv = tmp_path / "tracks.csv"
+    rows = [f"{int(ti)},1,{xi:.6f},0,0,0,1" for ti, xi in zip(t, x, strict=True)]
+    csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "\n".join(rows) + "\n")
+    log = tmp_path / "tracks.mcap"
+    assert run("convert", csv, "-o", log, *options).exit_code == 0
+    return log
+
+
 def _fed() -> Mapper:
     m = Mapper(ModelConfig())
     t = T0 + np.arange(0, 3600, 10) * 10**9
@@ -76,15 +89,10 @@ def test_a_saved_in_memory_map_records_the_span_a_log_built_map_records(tmp_path
     records its log's span (first to last message) and its queries five weeks later say
     "5 weeks after the map's data"; the map from the state recorded no span, so neither it
     nor its saved copy said so. Both now record the state's first and last detection."""
-    from tests.cli.conftest import run
 
     t = T0 + np.arange(0, 3600, 10) * 10**9
     x = np.linspace(0, 5, len(t))
-    csv = tmp_path / "tracks.csv"
-    rows = [f"{int(ti)},1,{xi:.6f},0,0,0,1" for ti, xi in zip(t, x, strict=True)]
-    csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "\n".join(rows) + "\n")
-    log = tmp_path / "tracks.mcap"
-    assert run("convert", csv, "-o", log).exit_code == 0
+    log = _converted(tmp_path, t, x)
     built = aion.build(log, tmp_path / "built.aion", tz="UTC")
     assert (built.manifest.start_ns, built.manifest.end_ns) == (int(t[0]), int(t[-1]))
 
@@ -118,12 +126,8 @@ def test_a_fixed_sensor_fed_in_memory_is_the_map_its_log_builds(tmp_path: Path) 
 
     t = T0 + np.arange(0, 1200, 10) * 10**9
     x = np.linspace(0, 5, len(t))
-    csv = tmp_path / "tracks.csv"
-    rows = [f"{int(ti)},1,{xi:.6f},0,0,0,1" for ti, xi in zip(t, x, strict=True)]
-    csv.write_text("t_ns,track_id,x,y,z,heading_rad,speed_mps\n" + "\n".join(rows) + "\n")
-    log = tmp_path / "tracks.mcap"
     hour = f"{T0 // 10**9}..{T0 // 10**9 + 3600}"
-    assert run("convert", csv, "-o", log, "--observed", hour).exit_code == 0
+    log = _converted(tmp_path, t, x, "--observed", hour)
     built = tmp_path / "built.aion"
     result = run("build", log, "-o", built, "--tz", "UTC", "-q")
     assert result.exit_code == 0, result.stderr

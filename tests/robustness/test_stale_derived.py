@@ -21,7 +21,7 @@ import pytest
 
 from aion_cli import derived_seal
 from tests.cli.conftest import run
-from tests.robustness.conftest import assert_one_error
+from tests.robustness.conftest import assert_one_error, rewrite_map
 from tests.robustness.test_derived_members import WHEN, _member, _npy, _rewritten
 from tests.test_part_maps import _logs
 
@@ -38,15 +38,7 @@ def base(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _manifest_edited(src: Path, out: Path, edit: Callable[[dict], None]) -> Path:
-    with zipfile.ZipFile(src) as zin:
-        contents = {n: zin.read(n) for n in zin.namelist()}
-    manifest = json.loads(contents["manifest.json"])
-    edit(manifest)
-    contents["manifest.json"] = json.dumps(manifest).encode()
-    with zipfile.ZipFile(out, "w", compression=zipfile.ZIP_STORED) as zout:
-        for n, d in contents.items():
-            zout.writestr(n, d)
-    return out
+    return rewrite_map(src, out, manifest_edit=edit)
 
 
 def _unsealed(src: Path, out: Path) -> Path:
