@@ -54,6 +54,7 @@ def write_query_map(n_entries: int, path: Path) -> dict[str, Any]:
     """A map of ~``n_entries`` cell entries with two weeks of history (``bench_engine``'s
     query map) written with ``write_map`` and the manifest fields the CLI shows; returns its
     size, entry count and bytes per member kind."""
+    from aion_cli.derived_seal import seal
     from aion_cli.formats.mapfile import read_manifest, write_map
     from benchmarks.bench_engine import build_state
 
@@ -66,7 +67,7 @@ def write_query_map(n_entries: int, path: Path) -> dict[str, Any]:
         "state": meta, "config": state.config.to_dict(), "inputs": [],
         "time_span": {"start_ns": T0_NS - 14 * day, "end_ns": T0_NS},
         "timezone": state.config.timezone, "graph_source": "none", "observation": "fixed",
-    })
+    }, seal=seal)  # sealed as every map aion writes
     del state, arrays
     members = read_manifest(path)["members"]
     kinds: dict[str, int] = {}
@@ -84,6 +85,7 @@ def write_places_map(extent: float, spacing: float, path: Path) -> dict[str, Any
     corridors every ``spacing`` m, a place every 2 m: 88,727 places at 1,150 m / 14 m) after
     three 10-minute windows of 400,000 detections on the corridors, for the PLY / PCD export
     and the entries files at scale (docs/BENCHMARKS.md); its place and entry counts."""
+    from aion_cli.derived_seal import seal
     from aion_cli.engine.config import ModelConfig
     from aion_cli.engine.mapper import Mapper
     from aion_cli.formats.mapfile import write_map
@@ -107,7 +109,7 @@ def write_places_map(extent: float, spacing: float, path: Path) -> dict[str, Any
         "state": meta, "config": state.config.to_dict(), "inputs": [],
         "time_span": {"start_ns": T0 - WINDOW_NS, "end_ns": T0 + 3 * WINDOW_NS},
         "timezone": state.config.timezone, "graph_source": "log", "observation": "fixed",
-    })
+    }, seal=seal)  # sealed as every map aion writes
     return {"places": len(graph.places.ids), "entries": len(state.entries.live_rows())}
 
 

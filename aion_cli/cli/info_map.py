@@ -62,7 +62,8 @@ def _derived_text(verified: dict[str, Any]) -> str:
     """What ``info --verify`` says of the map's derived members (``aion_cli.derived_seal``)."""
     what = "; its derived members (forecast_*, provisional_*)"
     if not verified.get("sealed"):
-        return f"{what} carry no seal (written before 2026-12-08)"
+        return (f"{what} carry no seal (written by an aion before 2026-12-08, or by another "
+                "writer): queries use them as stored")
     stale = verified.get("derived_stale")
     if stale is None:
         return f"{what} are its own"
