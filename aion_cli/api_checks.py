@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from datetime import date, datetime, timedelta, tzinfo
 from typing import TYPE_CHECKING, Any
 
@@ -179,9 +179,25 @@ def pair(value: object, what: str, names: str) -> tuple[Any, Any]:
 
 
 def spans(observed: object, what: str = "observed") -> list[tuple[Any, Any]]:
-    """``(start, end)`` pairs: a list of them, or one pair."""
+    """``(start, end)`` pairs: a list of them (or any iterable of them, a generator
+    included), one pair, or a numpy array of shape ``(2,)`` or ``(n, 2)`` (rows as pairs:
+    ``datetime64`` times, nanoseconds or text, as the times themselves)."""
     if observed is None:
         return []
+    import numpy as np
+
+    if isinstance(observed, np.ndarray):
+        if observed.ndim not in (1, 2) or observed.shape[-1] != 2:
+            raise InputError(
+                f"{what} as an array must be of shape (2,) or (n, 2): (start, end) rows, "
+                f"got shape {observed.shape}",
+                hint='e.g. observed=np.array([["2026-01-06 08:00", "2026-01-06 18:00"]])',
+            )
+        rows = list(observed) if observed.ndim == 2 else [observed]
+        observed = [tuple(row.tolist() if row.dtype.kind in "iuU" else row) for row in rows]
+    elif isinstance(observed, Iterable) and not isinstance(observed, str | bytes | Sequence
+                                                            | set | frozenset | Mapping):
+        observed = list(observed)  # a generator or another one-pass iterable: read once
     if isinstance(observed, str) or not isinstance(observed, Sequence):
         raise InputError(
             f"{what} must be (start, end) pairs, got {observed!r}",

@@ -56,10 +56,11 @@ CountLike = Union[int, "np.integer[Any]"]
 """A whole number (``top``, ``workers``, ``batch_size``): Python's or numpy's
 (:func:`aion_cli.api_checks.count`)."""
 
-SpansLike = Sequence[PairOf[TimeLike]] | tuple[TimeLike, TimeLike]
-"""``observed`` spans: ``(start, end)`` pairs, or one ``(start, end)`` alone
-(:func:`aion_cli.api_checks.spans` reads it, a list of two too; typed as a tuple so that a
-list of lists stays a list of spans)."""
+SpansLike = Sequence[PairOf[TimeLike]] | tuple[TimeLike, TimeLike] | Iterable[PairOf[TimeLike]]
+"""``observed`` spans: ``(start, end)`` pairs (any iterable of them, or a numpy array of shape
+``(n, 2)`` or ``(2,)``), or one ``(start, end)`` alone (:func:`aion_cli.api_checks.spans`
+reads it, a list of two too; typed as a tuple so that a list of lists stays a list of
+spans)."""
 
 if TYPE_CHECKING:  # typing_extensions only for the type checker (TypeVar's default, PEP 696)
     from typing_extensions import TypeVar
